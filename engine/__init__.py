@@ -1,0 +1,21 @@
+"""Indoor reconstruction engine: pure Python, never imports Blender.
+
+Scan files → :class:`PointCloud` → reconstruction → :class:`BuildingModel` → IFC,
+evaluation, change detection, reports. See README.md for the command line.
+"""
+from .errors import (Cancelled, EmptyCloudError, FormatError, IndoorError, InputError,
+                     MissingDependencyError, ReconstructionError)
+from .model import (BuildingModel, Polyhedron, Provenance, Relation, Scope, Shape, ShapeType,
+                    Storey, Surface)
+from .pointcloud import PointCloud
+from .progress import Progress
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "__version__",
+    "BuildingModel", "Polyhedron", "Provenance", "Relation", "Scope", "Shape", "ShapeType",
+    "Storey", "Surface", "PointCloud", "Progress",
+    "IndoorError", "InputError", "FormatError", "EmptyCloudError", "ReconstructionError",
+    "MissingDependencyError", "Cancelled",
+]

@@ -1,0 +1,1 @@
+"""Point-cloud readers and writers (being written; see README)."""

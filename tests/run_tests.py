@@ -1,0 +1,48 @@
+"""Run the test suite headless inside Blender, either way:
+
+    blender -b --factory-startup --python-exit-code 1 --python tests/run_tests.py -- <pytest args>
+    python tests/run_tests.py <pytest args>          # with the bpy module installed
+
+The exit code is pytest's (non-zero on any failure or when no test ran).
+"""
+import os
+import site
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _pytest_args():
+    argv = sys.argv
+    if "--" in argv:  # inside Blender: our args follow "--"
+        return argv[argv.index("--") + 1:]
+    return argv[1:]
+
+
+def _inside_blender_binary():
+    return os.path.basename(sys.executable).lower().startswith("python") is False or "--" in sys.argv
+
+
+def main():
+    args = _pytest_args()
+    # Under a real Blender binary its own Python lacks pytest and the engine's packages:
+    # borrow the project's .venv (Blender's bundled numpy stays first on the path).
+    venv_site = os.path.join(ROOT, ".venv", "lib", "python%d.%d" % sys.version_info[:2], "site-packages")
+    if os.path.isdir(venv_site) and venv_site not in sys.path:
+        site.addsitedir(venv_site)
+    if ROOT not in sys.path:
+        sys.path.insert(0, ROOT)
+    import bpy  # noqa: F401  (fail early and clearly when Blender is not available)
+    import pytest
+
+    os.chdir(ROOT)
+    code = pytest.main(["-p", "no:cacheprovider", *args])
+    sys.stdout.flush()
+    return int(code)
+
+
+if __name__ == "__main__":
+    code = main()
+    if code != 0:
+        # inside Blender --python-exit-code turns an uncaught exception into the exit code
+        raise SystemExit(code)
