@@ -1,0 +1,184 @@
+"""Cleaning and normals: non-finite rows, voxel downsampling, statistical outliers, PCA normals.
+
+SPEC.md §1. The working cloud is a voxel-downsampled copy (one *representative* input
+point per voxel, so every attribute and truth field survives and the scan noise is not
+averaged away); the original cloud is kept by the caller for evaluation.
+"""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from ..errors import EmptyCloudError, MissingDependencyError
+from ..pointcloud import PointCloud
+from .params import CleanParams, NormalParams
+
+__all__ = ["drop_nonfinite", "voxel_downsample", "remove_statistical_outliers", "estimate_normals",
+           "clean"]
+
+log = logging.getLogger(__name__)
+
+
+def _name(cloud: PointCloud) -> str:
+    return cloud.source or "point cloud"
+
+
+def drop_nonfinite(cloud: PointCloud) -> PointCloud:
+    """The cloud without rows whose coordinates are NaN or infinite.
+
+    ``dropped_nonfinite`` counts the rows removed (added to what the reader dropped).
+    """
+    ok = np.isfinite(cloud.xyz).all(axis=1)
+    if ok.all():
+        return cloud
+    out = cloud.subset(ok)
+    return out.with_(dropped_nonfinite=cloud.dropped_nonfinite + int((~ok).sum()))
+
+
+def voxel_downsample(cloud: PointCloud, voxel_size: float) -> tuple[PointCloud, np.ndarray, np.ndarray]:
+    """Keep one input point per occupied voxel.
+
+    Parameters
+    ----------
+    cloud : PointCloud
+    voxel_size : float
+        Voxel edge, metres; ``<= 0`` returns the cloud unchanged.
+
+    Returns
+    -------
+    working : PointCloud
+        The representatives (the first point of each voxel in input order), all attributes kept.
+    kept : (m,) int64
+        Index of each representative in ``cloud``.
+    voxel_of : (n,) int64
+        For every input point, the index of its representative in ``working`` — use it to
+        carry per-point results (labels, plane ids) back to the full cloud.
+    """
+    n = len(cloud)
+    if voxel_size <= 0 or n == 0:
+        idx = np.arange(n, dtype=np.int64)
+        return cloud, idx, idx
+    q = np.floor((cloud.xyz - cloud.xyz.min(axis=0)) / voxel_size).astype(np.int64)
+    dims = q.max(axis=0) + 1
+    key = (q[:, 0] * dims[1] + q[:, 1]) * dims[2] + q[:, 2]
+    _, kept, voxel_of = np.unique(key, return_index=True, return_inverse=True)
+    voxel_of = voxel_of.reshape(-1).astype(np.int64)
+    order = np.argsort(kept, kind="stable")  # keep representatives in input order
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    kept = kept[order].astype(np.int64)
+    voxel_of = rank[voxel_of]
+    return cloud.subset(kept), kept, voxel_of
+
+
+def remove_statistical_outliers(cloud: PointCloud, neighbors: int, std_ratio: float) -> tuple[PointCloud, np.ndarray]:
+    """Drop points whose mean distance to their ``neighbors`` nearest neighbours exceeds the
+    mean over the cloud by ``std_ratio`` standard deviations.
+
+    Returns the filtered cloud and the (n,) bool mask of kept points.
+    """
+    from scipy.spatial import cKDTree
+
+    n = len(cloud)
+    if n <= neighbors + 1:
+        return cloud, np.ones(n, bool)
+    d, _ = cKDTree(cloud.xyz).query(cloud.xyz, k=neighbors + 1, workers=-1)
+    md = d[:, 1:].mean(axis=1)
+    keep = md <= md.mean() + std_ratio * md.std()
+    return (cloud if keep.all() else cloud.subset(keep)), keep
+
+
+def clean(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[PointCloud, np.ndarray]:
+    """Non-finite rows dropped, voxel downsampling, statistical outlier removal.
+
+    Returns
+    -------
+    working : PointCloud
+        The cleaned working cloud.
+    source_index : (m,) int64
+        Index of each working point in the *finite* input (``drop_nonfinite(cloud)``).
+
+    Raises
+    ------
+    EmptyCloudError
+        Fewer than ``params.min_points`` usable points remain.
+    """
+    finite = drop_nonfinite(cloud)
+    if len(finite) < params.min_points:
+        raise EmptyCloudError(
+            f"only {len(finite)} usable points (at least {params.min_points} are needed to find "
+            "walls, floors and ceilings)", cloud.source or None)
+    work, kept, _ = voxel_downsample(finite, params.voxel_size)
+    if params.remove_outliers:
+        work, keep = remove_statistical_outliers(work, params.outlier_neighbors, params.outlier_std_ratio)
+        kept = kept[keep]
+    if len(work) < params.min_points:
+        raise EmptyCloudError(
+            f"only {len(work)} points left after downsampling to {params.voxel_size} m voxels "
+            f"(at least {params.min_points} are needed)", cloud.source or None)
+    log.info("cleaned %s: %d -> %d working points", _name(cloud), len(cloud), len(work))
+    return work, kept
+
+
+def _o3d():
+    try:
+        import open3d as o3d  # noqa: F401
+    except ImportError as e:  # pragma: no cover - open3d is in requirements
+        raise MissingDependencyError("open3d", "Normal estimation") from e
+    return o3d
+
+
+def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams()) -> PointCloud:
+    """PCA normals over a hybrid radius / k-nearest neighbourhood (open3d).
+
+    Parameters
+    ----------
+    cloud : PointCloud
+        (n, 3) float64 metres. Downsample first for large clouds (see :func:`clean`).
+    params : NormalParams
+
+    Returns
+    -------
+    PointCloud
+        A copy with ``normals`` (n, 3) float32 unit vectors. When scanner positions are known
+        (``scanner_positions`` (k, 3) with ``scan_index``, or a single position) and
+        ``params.orient_to_scanner``, each normal faces its scanner
+        (``n · (s − p) ≥ 0``); otherwise the sign is open3d's (arbitrary but consistent
+        enough for nothing in this package depends on it). Points with too few neighbours
+        get the normal of the PCA over their ``max_nn`` nearest points.
+
+    Raises
+    ------
+    EmptyCloudError
+        Fewer than 3 points.
+    """
+    if len(cloud) < 3:
+        raise EmptyCloudError("normals need at least 3 points", cloud.source or None)
+    o3d = _o3d()
+    pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.xyz))
+    pc.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=params.radius, max_nn=params.max_nn))
+    nrm = np.asarray(pc.normals, dtype=np.float64)
+    bad = ~np.isfinite(nrm).all(axis=1) | (np.linalg.norm(nrm, axis=1) < 0.5)
+    if bad.any():
+        nrm[bad] = (0.0, 0.0, 1.0)
+    if params.orient_to_scanner:
+        s = _scanner_of_points(cloud)
+        if s is not None:
+            ok = np.isfinite(s).all(axis=1)
+            flip = ok & (np.einsum("ij,ij->i", nrm, s - cloud.xyz) < 0)
+            nrm[flip] *= -1.0
+    return cloud.with_(normals=nrm.astype(np.float32))
+
+
+def _scanner_of_points(cloud: PointCloud):
+    """(n, 3) float64 scanner position of each point, or None when unknown (NaN rows allowed)."""
+    sp = cloud.scanner_positions
+    if sp is None or len(sp) == 0 or not np.isfinite(sp).any():
+        return None
+    if cloud.scan_index is not None and len(sp) > 1:
+        si = np.clip(cloud.scan_index, 0, len(sp) - 1)
+        return sp[si]
+    if len(sp) == 1:
+        return np.broadcast_to(sp[0], cloud.xyz.shape)
+    return None

@@ -1,0 +1,215 @@
+"""Storeys from the z histogram of horizontal points (SPEC.md §1 "Storeys").
+
+Method
+------
+1. z histogram (``bin_size``) of the floor/ceiling points (normal within θ of vertical)
+   of the aligned cloud; local maxima at least ``min_layer_gap`` apart are candidate
+   *layers*; each layer's height is the mean z of its points within ``layer_half_width``
+   (two passes), so it is not quantised to the bin.
+2. A layer's *area* is the area of the occupancy-grid cells (``grid_cell``) its points
+   fill; layers covering less than ``min_area_fraction`` of the building's occupied
+   footprint (all points) are dropped — a desk, a shelf or a bed is a big histogram peak
+   but a small area.
+3. Floor or ceiling: the non-horizontal points (walls, clutter) inside the layer's
+   footprint are counted in a thin window just above it and just below it. Walls rise
+   from a floor and hang from a ceiling, and nothing lies inside a slab, so
+   contrast = (above − below)/(above + below) is near +1 for a floor, −1 for a ceiling
+   and near 0 for furniture tops (legs below, walls above). Layers with
+   |contrast| < ``min_side_contrast`` are dropped. When scanner positions are known, a
+   floor must lie below a scanner and a ceiling above one (a tie-breaker for real scans).
+4. Pairing: floors in ascending order; floors less than ``min_storey_height`` above the
+   previous kept floor join its storey (the larger-area one wins); a storey's ceiling is
+   the largest-area ceiling layer at least ``min_storey_height`` above its floor and below
+   the next storey's floor.
+
+Departure from SPEC.md: the spec only says "peaks of the z histogram"; steps 2–4 are what
+makes it work on real rooms where furniture tops outnumber the floor.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ReconstructionError
+from ..model import Storey
+from ..pointcloud import PointCloud
+from .params import NormalParams, StoreyParams
+
+__all__ = ["detect_storeys", "detect_layers", "Layer"]
+
+log = logging.getLogger(__name__)
+
+_PEAK_FLOOR = 0.02
+"""Histogram bins below this share of the highest bin are not examined as layers (speed
+only: such layers fail ``min_area_fraction`` anyway)."""
+_MAX_PEAKS = 40
+"""At most this many histogram peaks are examined (speed bound)."""
+
+
+@dataclass(frozen=True)
+class Layer:
+    """A dense horizontal layer of points.
+
+    Attributes
+    ----------
+    z : float — height, metres (aligned frame)
+    points : int — horizontal points within ``layer_half_width``
+    area : float — occupied area, m² (grid cells)
+    contrast : float — (above − below)/(above + below) of non-horizontal points, in [−1, 1]
+    kind : str — "floor", "ceiling" or "other"
+    """
+
+    z: float
+    points: int
+    area: float
+    contrast: float
+    kind: str
+
+
+def _cells(xy: np.ndarray, origin: np.ndarray, cell: float, dims) -> np.ndarray:
+    q = np.floor((xy - origin) / cell).astype(np.int64)
+    q[:, 0] = np.clip(q[:, 0], 0, dims[0] - 1)
+    q[:, 1] = np.clip(q[:, 1], 0, dims[1] - 1)
+    return q[:, 0] * dims[1] + q[:, 1]
+
+
+def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> list[Layer]:
+    """Candidate floor/ceiling layers of an aligned cloud with normals (see module doc).
+
+    Returns every histogram layer with enough points, typed "floor", "ceiling" or "other"
+    (too small, or no contrast), sorted by z.
+    """
+    xyz = cloud.xyz
+    nz = np.abs(cloud.normals[:, 2].astype(np.float64))
+    hor = nz >= np.cos(params.angle_tolerance)
+    zh = xyz[hor, 2]
+    if len(zh) < params.min_layer_points:
+        return []
+    z0 = zh.min()
+    nb = int(np.ceil((zh.max() - z0) / params.bin_size)) + 1
+    hist = np.bincount(((zh - z0) / params.bin_size).astype(np.int64), minlength=nb).astype(np.float64)
+    smooth = np.convolve(hist, [0.25, 0.5, 0.25], mode="same")
+    order = np.argsort(-smooth, kind="stable")
+    taken = np.zeros(nb, bool)
+    gap_bins = max(1, int(round(params.min_layer_gap / params.bin_size)))
+    peaks = []
+    floor_count = _PEAK_FLOOR * smooth.max()
+    for b in order:
+        if smooth[b] < floor_count or len(peaks) >= _MAX_PEAKS:
+            break
+        if taken[b]:
+            continue
+        peaks.append(b)
+        taken[max(0, b - gap_bins):b + gap_bins + 1] = True
+    # footprint of the building
+    cell = params.grid_cell
+    origin = xyz[:, :2].min(axis=0)
+    dims = (np.floor((xyz[:, :2].max(axis=0) - origin) / cell).astype(np.int64) + 1)
+    all_cells = _cells(xyz[:, :2], origin, cell, dims)
+    footprint = np.unique(all_cells).size * cell * cell
+    nonhor = ~hor & (nz <= np.cos(params.angle_tolerance))
+    sp = cloud.scanner_positions
+    scanner_z = None if sp is None or not np.isfinite(sp).all(axis=1).any() else sp[np.isfinite(sp).all(axis=1), 2]
+    layers = []
+    hw = params.layer_half_width
+    for b in peaks:
+        z = z0 + (b + 0.5) * params.bin_size
+        for _ in range(2):
+            sel = np.abs(zh - z) <= hw
+            if sel.sum() == 0:
+                break
+            z = float(zh[sel].mean())
+        in_layer = hor & (np.abs(xyz[:, 2] - z) <= hw)
+        cnt = int(in_layer.sum())
+        if cnt < params.min_layer_points:
+            continue
+        occ = np.zeros(int(dims[0] * dims[1]), bool)
+        occ[all_cells[in_layer]] = True
+        area = occ.sum() * cell * cell
+        grid = occ.reshape(int(dims[0]), int(dims[1]))
+        dil = grid.copy()  # one-cell dilation so walls on the layer's rim count
+        dil[1:, :] |= grid[:-1, :]
+        dil[:-1, :] |= grid[1:, :]
+        dil[:, 1:] |= grid[:, :-1]
+        dil[:, :-1] |= grid[:, 1:]
+        inside = dil.reshape(-1)[all_cells] & nonhor
+        dz = xyz[inside, 2] - z
+        above = int(np.sum((dz > hw) & (dz <= hw + params.side_window)))
+        below = int(np.sum((dz < -hw) & (dz >= -hw - params.side_window)))
+        contrast = (above - below) / max(above + below, 1)
+        kind = "other"
+        if area >= params.min_area_fraction * footprint:
+            if contrast >= params.min_side_contrast:
+                kind = "floor"
+            elif contrast <= -params.min_side_contrast:
+                kind = "ceiling"
+            if scanner_z is not None:
+                if kind == "floor" and not np.any(scanner_z > z):
+                    kind = "other"
+                elif kind == "ceiling" and not np.any(scanner_z < z):
+                    kind = "other"
+        layers.append(Layer(z=z, points=cnt, area=float(area), contrast=float(contrast), kind=kind))
+    layers.sort(key=lambda L: L.z)
+    log.debug("layers: %s", layers)
+    return layers
+
+
+def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
+                   normal_params: NormalParams = NormalParams()) -> list[Storey]:
+    """Floor and ceiling heights of each storey of an aligned cloud (see module doc).
+
+    Parameters
+    ----------
+    cloud : PointCloud
+        Aligned (z up), metres; normals are estimated when missing.
+    params : StoreyParams
+
+    Returns
+    -------
+    list of Storey
+        Ascending; ``index`` 0, 1, …; ``floor_z``/``ceiling_z`` metres in the aligned frame;
+        ``elevation`` = ``floor_z``. For rooms of several ceiling heights in one storey,
+        ``ceiling_z`` is the height of the largest ceiling layer (use
+        :func:`detect_layers` for all of them).
+
+    Raises
+    ------
+    ReconstructionError
+        No floor layer with a ceiling layer at least ``min_storey_height`` above it.
+    """
+    from .cleaning import estimate_normals
+
+    if cloud.normals is None:
+        cloud = estimate_normals(cloud, normal_params)
+    name = cloud.source or "point cloud"
+    layers = detect_layers(cloud, params)
+    floors = [L for L in layers if L.kind == "floor"]
+    ceilings = [L for L in layers if L.kind == "ceiling"]
+    groups: list[list[Layer]] = []
+    for f in floors:
+        if groups and f.z - groups[-1][0].z < params.min_storey_height:
+            groups[-1].append(f)
+        else:
+            groups.append([f])
+    storeys = []
+    for i, g in enumerate(groups):
+        floor = max(g, key=lambda L: L.area)
+        top = groups[i + 1][0].z if i + 1 < len(groups) else np.inf
+        cand = [c for c in ceilings if floor.z + params.min_storey_height <= c.z < top]
+        if not cand:
+            log.warning("%s: floor at z = %.3f m has no ceiling layer above it; skipped", name, floor.z)
+            continue
+        ceil = max(cand, key=lambda L: L.area)
+        k = len(storeys)
+        storeys.append(Storey(index=k, floor_z=float(floor.z), ceiling_z=float(ceil.z),
+                              name=f"Storey {k}", elevation=float(floor.z)))
+    if not storeys:
+        desc = ", ".join(f"{L.kind} z={L.z:.2f} area={L.area:.1f}m² contrast={L.contrast:+.2f}" for L in layers)
+        raise ReconstructionError(
+            f"{name}: no storey found — no floor layer with a ceiling layer at least "
+            f"{params.min_storey_height} m above it (layers: {desc or 'none'})")
+    log.info("%s: %d storey(s): %s", name, len(storeys),
+             ", ".join(f"[{s.floor_z:.3f}, {s.ceiling_z:.3f}]" for s in storeys))
+    return storeys

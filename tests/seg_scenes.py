@@ -1,0 +1,164 @@
+"""Tiny synthetic scenes for the segmentation tests: points sampled on box rooms with noise.
+
+Independent of ``engine.synthetic`` so the segmentation tests check the algorithms on
+scenes whose truth is written out here.
+"""
+import numpy as np
+
+from engine.pointcloud import PointCloud
+
+
+def _rect(rng, origin, u, v, density, sigma, normal):
+    """Points on the rectangle origin + s u + t v (s, t in [0, 1])."""
+    area = np.linalg.norm(u) * np.linalg.norm(v)
+    n = max(int(area * density), 3)
+    s, t = rng.random(n), rng.random(n)
+    p = origin + s[:, None] * u + t[:, None] * v
+    return p + rng.normal(0, sigma, n)[:, None] * normal
+
+
+def room_points(rng, x0, y0, x1, y1, z0, z1, density=400.0, sigma=0.005, walls=(True,) * 4,
+                floor=True, ceiling=True):
+    """Points on the inner faces of an axis-aligned room; returns (xyz, label) with labels
+    0 wall, 1 floor, 2 ceiling."""
+    parts, labels = [], []
+    o = np.array
+    dx, dy, dz = x1 - x0, y1 - y0, z1 - z0
+    if floor:
+        parts.append(_rect(rng, o([x0, y0, z0]), o([dx, 0, 0]), o([0, dy, 0]), density, sigma, o([0, 0, 1.0])))
+        labels.append(1)
+    if ceiling:
+        parts.append(_rect(rng, o([x0, y0, z1]), o([dx, 0, 0]), o([0, dy, 0]), density, sigma, o([0, 0, 1.0])))
+        labels.append(2)
+    specs = [
+        (o([x0, y0, z0]), o([dx, 0, 0]), o([0, 1.0, 0])),
+        (o([x0, y1, z0]), o([dx, 0, 0]), o([0, 1.0, 0])),
+        (o([x0, y0, z0]), o([0, dy, 0]), o([1.0, 0, 0])),
+        (o([x1, y0, z0]), o([0, dy, 0]), o([1.0, 0, 0])),
+    ]
+    for on, (org, u, nrm) in zip(walls, specs):
+        if on:
+            parts.append(_rect(rng, org, u, o([0, 0, dz]), density, sigma, nrm))
+            labels.append(0)
+    lab = np.concatenate([np.full(len(p), l, np.int32) for p, l in zip(parts, labels)])
+    return np.vstack(parts), lab
+
+
+def box_points(rng, lo, hi, density, sigma):
+    """Points on all six faces of a box (furniture)."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    xyz, _ = room_points(rng, lo[0], lo[1], hi[0], hi[1], lo[2], hi[2], density, sigma)
+    return xyz
+
+
+def make_cloud(xyz, labels=None, scanners=None, scan_index=None):
+    fields = {} if labels is None else {"label": labels}
+    return PointCloud(xyz=xyz, fields=fields, scanner_positions=scanners, scan_index=scan_index)
+
+
+def two_room_office(seed=0, sigma=0.005, density=400.0):
+    """Two rooms 4 x 5 m and 3 x 5 m side by side sharing a 0.2 m thick wall at x = 4..4.2,
+    floor 0, ceiling 2.7, with a desk in room 1. Returns (cloud, truth dict)."""
+    rng = np.random.default_rng(seed)
+    a, la = room_points(rng, 0, 0, 4, 5, 0, 2.7, density, sigma)
+    b, lb = room_points(rng, 4.2, 0, 7.2, 5, 0, 2.7, density, sigma)
+    desk = box_points(rng, (1.0, 1.0, 0.0), (2.6, 1.8, 0.75), density * 2, sigma)
+    xyz = np.vstack([a, b, desk])
+    lab = np.concatenate([la, lb, np.full(len(desk), 3, np.int32)])
+    sc = np.array([[2.0, 3.5, 1.5], [5.7, 2.5, 1.5]])
+    si = np.concatenate([np.zeros(len(a), np.int32), np.ones(len(b), np.int32), np.zeros(len(desk), np.int32)])
+    truth = {
+        "rooms": [(0, 0, 4, 5), (4.2, 0, 7.2, 5)],
+        "walls_x": [0.0, 4.0, 4.2, 7.2],
+        "walls_y": [0.0, 5.0],
+        "floor": 0.0,
+        "ceiling": 2.7,
+    }
+    return make_cloud(xyz, lab, sc, si), truth
+
+
+def two_storey(seed=0, sigma=0.005, density=300.0):
+    """Two storeys of one 6 x 4 m room: floors 0 and 3.0, ceilings 2.6 and 5.75 (0.4 m
+    slab). Returns (cloud, [(floor, ceiling), ...])."""
+    rng = np.random.default_rng(seed)
+    a, la = room_points(rng, 0, 0, 6, 4, 0.0, 2.6, density, sigma)
+    b, lb = room_points(rng, 0, 0, 6, 4, 3.0, 5.75, density, sigma)
+    return make_cloud(np.vstack([a, b]), np.concatenate([la, lb])), [(0.0, 2.6), (3.0, 5.75)]
+
+
+def rotation(yaw, tilt_x=0.0, tilt_y=0.0):
+    """(4, 4) rotation: tilt about x, then about y, then yaw about z (radians)."""
+    cz, sz = np.cos(yaw), np.sin(yaw)
+    cx, sx = np.cos(tilt_x), np.sin(tilt_x)
+    cy, sy = np.cos(tilt_y), np.sin(tilt_y)
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    m = np.eye(4)
+    m[:3, :3] = rz @ ry @ rx
+    return m
+
+
+def _lzf_decompress(data: bytes, out_len: int) -> bytes:
+    out = bytearray(out_len)
+    i = o = 0
+    n = len(data)
+    while i < n:
+        ctrl = data[i]
+        i += 1
+        if ctrl < 32:
+            ln = ctrl + 1
+            out[o:o + ln] = data[i:i + ln]
+            i += ln
+            o += ln
+        else:
+            ln = ctrl >> 5
+            ref = o - ((ctrl & 0x1F) << 8) - 1
+            if ln == 7:
+                ln += data[i]
+                i += 1
+            ref -= data[i]
+            i += 1
+            ln += 2
+            for _ in range(ln):  # byte-wise: the copy may overlap
+                out[o] = out[ref]
+                o += 1
+                ref += 1
+    return bytes(out)
+
+
+def read_room_scan(path):
+    """The real PCL room scan as a PointCloud: engine.io when it exists, else a minimal
+    reader of x y z float32 binary_compressed PCD (test helper only)."""
+    try:
+        from engine.io import read_point_cloud
+    except ImportError:
+        read_point_cloud = None
+    if read_point_cloud is not None:
+        return read_point_cloud(path)
+    import struct
+
+    with open(path, "rb") as f:
+        raw = f.read()
+    header, pos = {}, 0
+    while True:
+        end = raw.index(b"\n", pos)
+        line = raw[pos:end].decode("ascii").strip()
+        pos = end + 1
+        if line.startswith("#") or not line:
+            continue
+        key, *vals = line.split()
+        header[key] = vals
+        if key == "DATA":
+            break
+    n = int(header["POINTS"][0])
+    assert header["FIELDS"][:3] == ["x", "y", "z"] and header["DATA"][0] == "binary_compressed"
+    comp, size = struct.unpack("<II", raw[pos:pos + 8])
+    data = _lzf_decompress(raw[pos + 8:pos + 8 + comp], size)
+    nf = len(header["FIELDS"])
+    cols = [np.frombuffer(data, "<f4", count=n, offset=4 * n * k) for k in range(min(nf, 3))]
+    xyz = np.column_stack(cols).astype(np.float64)
+    ok = np.isfinite(xyz).all(axis=1)
+    vp = [float(v) for v in header.get("VIEWPOINT", ["0"] * 3)[:3]]
+    return PointCloud(xyz=xyz[ok], scanner_positions=np.array([vp]), source=str(path),
+                      dropped_nonfinite=int((~ok).sum()))
