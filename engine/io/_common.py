@@ -1,0 +1,194 @@
+"""What every reader shares: file checks, reader options, and turning raw arrays into a
+:class:`~engine.pointcloud.PointCloud` (non-finite rows, global offset, unit check)."""
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..errors import EmptyCloudError, InputError
+from ..pointcloud import MIN_POINTS, PointCloud
+
+__all__ = ["ReadParams", "check_file", "finish_cloud", "colors_to_u8", "suspect_units", "UNITS_ATTRIBUTE"]
+
+log = logging.getLogger(__name__)
+
+UNITS_ATTRIBUTE = "units_warning"
+"""Name of the extra attribute a reader sets on the returned cloud when the coordinates
+look like millimetres (see :func:`suspect_units`); read it with
+``getattr(cloud, UNITS_ATTRIBUTE, None)``."""
+
+
+@dataclass(frozen=True)
+class ReadParams:
+    """Options shared by all readers."""
+
+    chunk_points: int = 2_000_000
+    """Points read per chunk when streaming a large file (progress is reported per chunk)."""
+    offset_threshold_m: float = 1.0e4
+    """When any |coordinate| exceeds this (metres), a global offset is removed."""
+    offset_round_m: float = 100.0
+    """The removed offset is the centre of the bounding box rounded to a multiple of this
+    (metres), so it reads well and float32 keeps sub-millimetre precision."""
+    max_indoor_extent_m: float = 2000.0
+    """A cloud whose bounding box is larger than this on any axis is not an indoor scan in
+    metres; if its extent divided by 1000 is a plausible building size it is flagged as
+    probably being in millimetres."""
+    min_building_extent_m: float = 1.0
+    """Smallest plausible extent (metres) of a scanned building; used with
+    ``max_indoor_extent_m`` by the millimetre check."""
+
+
+DEFAULT_PARAMS = ReadParams()
+
+
+def check_file(path) -> str:
+    """Return ``path`` as str after checking it is an existing, non-empty regular file.
+
+    Raises
+    ------
+    InputError
+        The file is missing, is a directory, or cannot be opened.
+    EmptyCloudError
+        The file is empty (0 bytes).
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise InputError("file not found", path)
+    if os.path.isdir(path):
+        raise InputError("is a directory, not a scan file", path)
+    if not os.access(path, os.R_OK):
+        raise InputError("file is not readable (permission denied)", path)
+    if os.path.getsize(path) == 0:
+        raise EmptyCloudError("file is empty (0 bytes)", path)
+    return path
+
+
+def colors_to_u8(c: np.ndarray) -> np.ndarray:
+    """Convert colour values to (n, 3) uint8.
+
+    uint8 is kept; integers above 255 anywhere mean 16-bit colour, scaled by 255/65535;
+    floats all within [0, 1] with some fraction are scaled by 255; anything else is rounded
+    and clipped to 0–255.
+    """
+    c = np.asarray(c)
+    if c.dtype == np.uint8:
+        return c
+    v = np.nan_to_num(c.astype(np.float64))
+    if v.size and v.max() > 255:
+        v = v * (255.0 / 65535.0)
+    elif c.dtype.kind == "f" and v.size and v.max() <= 1.0 and np.any(v != np.round(v)):
+        v = v * 255.0
+    return np.clip(np.round(v), 0, 255).astype(np.uint8)
+
+
+def suspect_units(xyz_extent: np.ndarray, params: ReadParams = DEFAULT_PARAMS) -> Optional[str]:
+    """Say whether coordinates look like millimetres rather than metres.
+
+    Parameters
+    ----------
+    xyz_extent : (3,) float64
+        Size of the bounding box along x, y, z in file units (assumed metres).
+    params : ReadParams
+
+    Returns
+    -------
+    str or None
+        A human-readable warning when the largest extent exceeds
+        ``params.max_indoor_extent_m`` while that extent read as millimetres is a plausible
+        building size; None otherwise. The data are **never** rescaled: the caller decides
+        (an indoor scan in millimetres must be converted by the user; a wrongly guessed
+        rescale would silently corrupt georeferenced data).
+    """
+    ext = float(np.max(xyz_extent)) if len(xyz_extent) else 0.0
+    if ext > params.max_indoor_extent_m and params.min_building_extent_m <= ext / 1000.0 <= params.max_indoor_extent_m:
+        return (f"bounding box is {ext:,.0f} units across: too large for an indoor scan in metres; "
+                f"the coordinates look like millimetres ({ext / 1000.0:,.1f} m). They were NOT rescaled.")
+    return None
+
+
+def _rounded_centre(lo: np.ndarray, hi: np.ndarray, step: float) -> np.ndarray:
+    return np.round((lo + hi) / 2.0 / step) * step
+
+
+def finish_cloud(
+    path: str,
+    xyz: np.ndarray,
+    *,
+    colors=None,
+    intensity=None,
+    normals=None,
+    scan_index=None,
+    scanner_positions=None,
+    fields=None,
+    offset=None,
+    params: ReadParams = DEFAULT_PARAMS,
+) -> PointCloud:
+    """Build the reader's result from raw arrays in file coordinates.
+
+    Drops rows whose coordinates are not finite (counted in ``dropped_nonfinite``), removes a
+    large global offset (recorded in ``offset``), checks units, and rejects clouds with fewer
+    than :data:`~engine.pointcloud.MIN_POINTS` points.
+
+    Parameters
+    ----------
+    path : str
+        The file read (named in errors, stored as ``source``).
+    xyz : (n, 3) float64
+        Coordinates in file units (metres expected); may be modified in place.
+    colors, intensity, normals, scan_index, fields :
+        Per-point arrays (see :class:`~engine.pointcloud.PointCloud`) or None.
+    scanner_positions : (k, 3) float64 or None
+        In the same frame as ``xyz`` (before offset removal).
+    offset : (3,) float64 or None
+        An offset already removed from ``xyz`` by the file itself (e.g. written by
+        :func:`engine.io.write_ply`); any further offset removed here is added to it.
+
+    Raises
+    ------
+    EmptyCloudError
+        Nothing or fewer than ``MIN_POINTS`` finite points remain.
+    """
+    n_total = len(xyz)
+    if n_total == 0:
+        raise EmptyCloudError("the file holds no points", path)
+    finite = np.isfinite(xyz).all(axis=1)
+    n_ok = int(np.count_nonzero(finite))
+    dropped = n_total - n_ok
+    fields = dict(fields or {})
+    if dropped:
+        if n_ok == 0:
+            raise EmptyCloudError(f"all {n_total:,} points have non-finite coordinates (NaN or inf)", path)
+        log.warning("%s: dropped %d of %d points with non-finite coordinates", path, dropped, n_total)
+
+        def keep(a):
+            return None if a is None else a[finite]
+
+        xyz, colors, intensity, normals, scan_index = (keep(a) for a in (xyz, colors, intensity, normals, scan_index))
+        fields = {k: v[finite] for k, v in fields.items()}
+    if n_ok < MIN_POINTS:
+        raise EmptyCloudError(f"only {n_ok} usable points; at least {MIN_POINTS} are needed", path)
+
+    lo, hi = xyz.min(axis=0), xyz.max(axis=0)
+    base = np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64).reshape(3)
+    extra = np.zeros(3)
+    if max(np.abs(lo).max(), np.abs(hi).max()) > params.offset_threshold_m:
+        extra = _rounded_centre(lo, hi, params.offset_round_m)
+        xyz -= extra
+        if scanner_positions is not None:
+            scanner_positions = np.asarray(scanner_positions, dtype=np.float64).reshape(-1, 3) - extra
+        log.info("%s: removed global offset %s m", path, extra.tolist())
+    warning = suspect_units(hi - lo, params)
+    cloud = PointCloud(
+        xyz=xyz, colors=colors, intensity=intensity, normals=normals, scan_index=scan_index,
+        scanner_positions=scanner_positions, offset=base + extra, fields=fields, source=path,
+        dropped_nonfinite=dropped,
+    )
+    if warning:
+        log.warning("%s: %s", path, warning)
+        # PointCloud has no slot for warnings yet: attach the flag as an extra attribute.
+        object.__setattr__(cloud, UNITS_ATTRIBUTE, warning)
+    return cloud

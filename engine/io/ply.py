@@ -1,0 +1,389 @@
+"""PLY point clouds: read ASCII and binary (little/big endian), write binary or ASCII.
+
+Vertex properties understood (other scalar properties go to ``cloud.fields`` by name):
+
+==========================================  ====================================
+``x y z`` (float, double or integer)        ``xyz`` (float64 metres)
+``red green blue`` (also ``r g b``,         ``colors`` (uint8; 16-bit values are
+``diffuse_red``...)                          scaled by 1/257, floats in [0, 1] by 255)
+``nx ny nz`` (also ``normal_x``...)         ``normals`` (float32)
+``intensity`` (also ``scalar_intensity``,   ``intensity`` (float32)
+``reflectance``)
+``scan_index``                              ``scan_index`` (int32)
+``<name>__0``, ``<name>__1``...             one (n, k) field ``<name>``
+==========================================  ====================================
+
+Comments written by :func:`write_ply` and read back: ``comment indoor_offset X Y Z`` (the
+cloud's removed offset, metres) and ``comment indoor_scanner I X Y Z`` (scanner position of
+scan ``I`` in the file's frame). Elements other than ``vertex`` (faces...) are skipped.
+"""
+from __future__ import annotations
+
+import os
+import re
+from typing import Optional
+
+import numpy as np
+
+from ..errors import FormatError
+from ..fileutil import atomic_path
+from ..pointcloud import PointCloud
+from ..progress import Progress
+from ._common import DEFAULT_PARAMS, ReadParams, check_file, colors_to_u8, finish_cloud
+from ._text import parse_rows
+
+__all__ = ["read_ply", "write_ply"]
+
+_PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+_NP_TO_PLY = {"i1": "char", "u1": "uchar", "i2": "short", "u2": "ushort", "i4": "int", "u4": "uint",
+              "f4": "float", "f8": "double"}
+_MAX_HEADER_BYTES = 1 << 20
+
+_ROLE_NAMES = {
+    "x": ("xyz", 0), "y": ("xyz", 1), "z": ("xyz", 2),
+    "red": ("colors", 0), "green": ("colors", 1), "blue": ("colors", 2),
+    "r": ("colors", 0), "g": ("colors", 1), "b": ("colors", 2),
+    "diffuse_red": ("colors", 0), "diffuse_green": ("colors", 1), "diffuse_blue": ("colors", 2),
+    "nx": ("normals", 0), "ny": ("normals", 1), "nz": ("normals", 2),
+    "normal_x": ("normals", 0), "normal_y": ("normals", 1), "normal_z": ("normals", 2),
+    "intensity": ("intensity", None), "scalar_intensity": ("intensity", None),
+    "reflectance": ("intensity", None),
+    "scan_index": ("scan_index", None),
+}
+_GROUPED = re.compile(r"^(.+)__(\d+)$")
+
+
+class _Header:
+    def __init__(self):
+        self.format = None
+        self.elements = []  # (name, count, [(prop, type) | (prop, "list", count_t, item_t)])
+        self.comments = []
+        self.data_start = 0
+        self.header_lines = 0
+
+
+def _parse_header(path: str, f) -> _Header:
+    head = f.read(4)
+    if head[:3] != b"ply":
+        raise FormatError("not a PLY file (it does not start with 'ply')", path)
+    f.seek(0)
+    raw = b""
+    while b"end_header" not in raw:
+        block = f.read(65536)
+        if not block:
+            raise FormatError("PLY header has no 'end_header' line", path)
+        raw += block
+        if len(raw) > _MAX_HEADER_BYTES and b"end_header" not in raw:
+            raise FormatError("PLY header has no 'end_header' line in its first megabyte", path)
+    end = raw.index(b"end_header")
+    nl = raw.find(b"\n", end)
+    if nl < 0:
+        raise FormatError("PLY header is cut after 'end_header'", path)
+    h = _Header()
+    h.data_start = nl + 1
+    h.header_lines = raw[: nl + 1].count(b"\n")
+    lines = raw[:end].decode("ascii", errors="replace").splitlines()
+    for k, line in enumerate(lines[1:], start=2):
+        t = line.split()
+        if not t:
+            continue
+        kw = t[0]
+        try:
+            if kw == "format":
+                if t[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
+                    raise FormatError(f"unknown PLY format {t[1]!r}", path)
+                h.format = t[1]
+            elif kw in ("comment", "obj_info"):
+                h.comments.append(line.split(None, 1)[1] if len(t) > 1 else "")
+            elif kw == "element":
+                h.elements.append((t[1], int(t[2]), []))
+            elif kw == "property":
+                if not h.elements:
+                    raise FormatError(f"header line {k}: property before any element", path)
+                if t[1] == "list":
+                    h.elements[-1][2].append((t[4], "list", _ptype(t[2], path), _ptype(t[3], path)))
+                else:
+                    h.elements[-1][2].append((t[2], _ptype(t[1], path)))
+            else:
+                raise FormatError(f"header line {k}: unknown keyword {kw!r}", path)
+        except (IndexError, ValueError):
+            raise FormatError(f"header line {k}: malformed {line.strip()!r}", path) from None
+    if h.format is None:
+        raise FormatError("PLY header has no 'format' line", path)
+    return h
+
+
+def _ptype(name: str, path: str) -> str:
+    try:
+        return _PLY_TYPES[name]
+    except KeyError:
+        raise FormatError(f"unknown PLY property type {name!r}", path) from None
+
+
+def _comment_values(comments, key):
+    out = []
+    for c in comments:
+        t = c.split()
+        if t and t[0] == key:
+            try:
+                out.append([float(v) for v in t[1:]])
+            except ValueError:
+                pass
+    return out
+
+
+class _Assembler:
+    """Preallocated output arrays and the property -> (array, column) copy plan."""
+
+    def __init__(self, names, dtypes, n):
+        self.n = n
+        self.arrays = {}
+        self.plan = []
+        self.raw_color_dtype = None
+        groups = {}
+        for name, dt in zip(names, dtypes):
+            role = _ROLE_NAMES.get(name.lower())
+            if role is not None and role[0] in self.arrays and role[1] is None:
+                role = None  # a second intensity-like property: keep it as a field
+            if role is not None:
+                target, col = role
+                if target not in self.arrays:
+                    if target == "xyz":
+                        self.arrays[target] = np.zeros((n, 3), np.float64)
+                    elif target == "colors":
+                        self.raw_color_dtype = np.dtype(dt)
+                        self.arrays[target] = np.zeros((n, 3), np.dtype(dt))
+                    elif target == "normals":
+                        self.arrays[target] = np.zeros((n, 3), np.float32)
+                    elif target == "intensity":
+                        self.arrays[target] = np.zeros(n, np.float32)
+                    else:
+                        self.arrays[target] = np.zeros(n, np.int32)
+                self.plan.append((name, target, col))
+                continue
+            m = _GROUPED.match(name)
+            if m:
+                groups.setdefault(m.group(1), []).append((int(m.group(2)), name, dt))
+                continue
+            key = "field:" + name
+            self.arrays[key] = np.zeros(n, np.dtype(dt))
+            self.plan.append((name, key, None))
+        for base, items in groups.items():
+            items.sort()
+            if [i for i, _, _ in items] != list(range(len(items))) or ("field:" + base) in self.arrays:
+                for _, name, dt in items:  # not a clean 0..k-1 group: keep separate
+                    self.arrays["field:" + name] = np.zeros(n, np.dtype(dt))
+                    self.plan.append((name, "field:" + name, None))
+                continue
+            self.arrays["field:" + base] = np.zeros((n, len(items)), np.dtype(items[0][2]))
+            for i, name, _ in items:
+                self.plan.append((name, "field:" + base, i))
+
+    def put(self, start, get):
+        """Copy one chunk: ``get(name)`` returns that property's values for the chunk."""
+        for name, target, col in self.plan:
+            v = get(name)
+            a = self.arrays[target]
+            if col is None:
+                a[start:start + len(v)] = v
+            else:
+                a[start:start + len(v), col] = v
+
+
+def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadParams] = None) -> PointCloud:
+    """Read the ``vertex`` element of a PLY file.
+
+    Binary bodies are read with a structured dtype in chunks of ``params.chunk_points``
+    (progress reported per chunk); ASCII bodies are parsed in chunks of lines.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    progress, should_stop : callables, optional
+        See :class:`engine.progress.Progress`.
+    params : ReadParams, optional
+
+    Returns
+    -------
+    PointCloud
+        ``xyz`` (n, 3) float64 metres (offset removed), optional colours, normals,
+        intensity, scan_index and extra properties in ``fields``.
+
+    Raises
+    ------
+    FormatError
+        Not a PLY file, a malformed header, no vertex element or no x/y/z, list properties
+        in the vertex element, a body shorter than the header's vertex count, a bad ASCII line.
+    EmptyCloudError
+        No or too few finite points.
+    """
+    params = params or DEFAULT_PARAMS
+    path = check_file(path)
+    p = Progress.wrap(progress, should_stop)
+    size = os.path.getsize(path)
+    with open(path, "rb") as f:
+        h = _parse_header(path, f)
+        names = [e[0] for e in h.elements]
+        if "vertex" not in names:
+            raise FormatError("PLY file has no 'vertex' element", path)
+        vi = names.index("vertex")
+        _, n, props = h.elements[vi]
+        if any(len(pr) != 2 for pr in props):
+            raise FormatError("list properties in the PLY vertex element are not supported", path)
+        pnames = [pr[0] for pr in props]
+        if not {"x", "y", "z"} <= set(pnames):
+            raise FormatError("PLY vertex element lacks x, y or z", path)
+        asm = _Assembler(pnames, [pr[1] for pr in props], n)
+        if h.format == "ascii":
+            _read_ascii_body(path, f, h, vi, n, pnames, asm, p, params)
+        else:
+            endian = "<" if h.format == "binary_little_endian" else ">"
+            skip = 0
+            for name, count, eprops in h.elements[:vi]:
+                if any(len(pr) != 2 for pr in eprops):
+                    raise FormatError(f"PLY element {name!r} before 'vertex' has list properties; "
+                                      "cannot locate the vertices", path)
+                skip += count * np.dtype([(pr[0], endian + pr[1]) for pr in eprops]).itemsize
+            dt = np.dtype([(pr[0], endian + pr[1]) for pr in props])
+            start = h.data_start + skip
+            available = max(size - start, 0) // dt.itemsize if dt.itemsize else 0
+            if available < n:
+                raise FormatError(
+                    f"truncated binary body: the header declares {n:,} vertices "
+                    f"({n * dt.itemsize:,} bytes) but the file holds only {available:,}", path)
+            f.seek(start)
+            step = max(int(params.chunk_points), 1)
+            for i in range(0, n, step):
+                m = min(step, n - i)
+                chunk = np.fromfile(f, dtype=dt, count=m)
+                if len(chunk) != m:
+                    raise FormatError(f"truncated binary body at vertex {i + len(chunk):,} of {n:,}", path)
+                asm.put(i, lambda nm: chunk[nm])
+                p((i + m) / max(n, 1), "reading PLY")
+    return _finish(path, h, asm, params)
+
+
+def _read_ascii_body(path, f, h, vi, n, pnames, asm, p, params):
+    f.seek(h.data_start)
+    text = f.read().decode("utf-8", errors="replace")
+    lines = text.splitlines()
+    skip = sum(e[1] for e in h.elements[:vi])
+    body = [ln for ln in lines if ln.strip()]
+    if len(body) < skip + n:
+        raise FormatError(f"the header declares {n:,} vertices but the file holds only "
+                          f"{max(len(body) - skip, 0):,} vertex lines", path)
+    vertex_lines = body[skip: skip + n]
+    step = max(int(params.chunk_points), 1)
+    ncols = len(pnames)
+    for i in range(0, n, step):
+        block = "\n".join(vertex_lines[i: i + step])
+        vals = parse_rows(block, ncols, path, first_line=h.header_lines + skip + i + 1)
+        cols = {nm: vals[:, k] for k, nm in enumerate(pnames)}
+        asm.put(i, cols.__getitem__)
+        p(min(i + step, n) / max(n, 1), "reading PLY")
+
+
+def _finish(path, h, asm, params):
+    a = asm.arrays
+    colors = None if "colors" not in a else colors_to_u8(a["colors"])
+    fields = {k[6:]: v for k, v in a.items() if k.startswith("field:")}
+    offs = _comment_values(h.comments, "indoor_offset")
+    offset = np.asarray(offs[-1][:3]) if offs and len(offs[-1]) >= 3 else None
+    scanners = sorted((int(v[0]), v[1:4]) for v in _comment_values(h.comments, "indoor_scanner") if len(v) >= 4)
+    sp = np.asarray([s[1] for s in scanners], dtype=np.float64) if scanners else None
+    return finish_cloud(path, a["xyz"], colors=colors, intensity=a.get("intensity"), normals=a.get("normals"),
+                        scan_index=a.get("scan_index"), scanner_positions=sp, fields=fields, offset=offset,
+                        params=params)
+
+
+def write_ply(path, cloud: PointCloud, *, binary: bool = True, dtype: str = "f8") -> None:
+    """Write a cloud as a PLY file, atomically (a temporary file moved into place).
+
+    Written vertex properties: ``x y z`` (``dtype`` "f8" double or "f4" float, the cloud's
+    offset-removed coordinates), ``red green blue`` (uchar), ``intensity`` (float),
+    ``nx ny nz`` (float), ``scan_index`` (int), then every ``cloud.fields`` array (1-D as one
+    property, (n, k) as ``name__0..name__{k-1}``; bool is written as uchar; 64-bit integers
+    as int/uint, which must fit). The offset and scanner positions go into comments so
+    :func:`read_ply` restores them.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    cloud : PointCloud
+    binary : bool
+        Little-endian binary (default) or ASCII.
+    dtype : {"f8", "f4"}
+        Coordinate precision.
+    """
+    if dtype not in ("f8", "f4"):
+        raise ValueError(f"dtype must be 'f8' or 'f4', not {dtype!r}")
+    n = len(cloud)
+    cols = []  # (name, np type code, values (n,))
+    for k, nm in enumerate("xyz"):
+        cols.append((nm, dtype, cloud.xyz[:, k]))
+    if cloud.colors is not None:
+        for k, nm in enumerate(("red", "green", "blue")):
+            cols.append((nm, "u1", cloud.colors[:, k]))
+    if cloud.intensity is not None:
+        cols.append(("intensity", "f4", cloud.intensity))
+    if cloud.normals is not None:
+        for k, nm in enumerate(("nx", "ny", "nz")):
+            cols.append((nm, "f4", cloud.normals[:, k]))
+    if cloud.scan_index is not None:
+        cols.append(("scan_index", "i4", cloud.scan_index))
+    for name, v in cloud.fields.items():
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+            raise ValueError(f"field name {name!r} cannot be a PLY property name")
+        v = np.asarray(v)
+        code = _field_code(name, v)
+        if v.ndim == 1:
+            cols.append((name, code, v))
+        else:
+            v2 = v.reshape(n, -1)
+            for i in range(v2.shape[1]):
+                cols.append((f"{name}__{i}", code, v2[:, i]))
+    lines = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
+             "comment written by indoor-reconstruction engine.io.write_ply"]
+    if np.any(cloud.offset != 0):
+        lines.append("comment indoor_offset " + " ".join(repr(float(v)) for v in cloud.offset))
+    if cloud.scanner_positions is not None:
+        for i, s in enumerate(cloud.scanner_positions):
+            lines.append(f"comment indoor_scanner {i} " + " ".join(repr(float(v)) for v in s))
+    lines.append(f"element vertex {n}")
+    lines += [f"property {_NP_TO_PLY[c]} {nm}" for nm, c, _ in cols]
+    lines.append("end_header")
+    header = ("\n".join(lines) + "\n").encode("ascii")
+    with atomic_path(path, suffix=".ply") as tmp:
+        with open(tmp, "wb") as f:
+            f.write(header)
+            if binary:
+                rec = np.empty(n, dtype=[(nm, "<" + c) for nm, c, _ in cols])
+                for nm, _, v in cols:
+                    rec[nm] = v
+                rec.tofile(f)
+            else:
+                fmts = ["%.17g" if c == "f8" else "%.9g" if c == "f4" else "%d" for _, c, _ in cols]
+                table = np.empty((n, len(cols)), dtype=np.float64)
+                for k, (_, _, v) in enumerate(cols):
+                    table[:, k] = v
+                np.savetxt(f, table, fmt=fmts, delimiter=" ")
+
+
+def _field_code(name: str, v: np.ndarray) -> str:
+    if v.dtype == np.bool_:
+        return "u1"
+    if v.dtype.kind == "f":
+        return "f8" if v.dtype.itemsize == 8 else "f4"
+    if v.dtype.kind in "iu":
+        code = f"{v.dtype.kind}{min(v.dtype.itemsize, 4)}"
+        if v.dtype.itemsize > 4 and v.size:
+            info = np.iinfo(code)
+            if v.min() < info.min or v.max() > info.max:
+                raise ValueError(f"field {name!r} does not fit a 32-bit PLY integer")
+        return code
+    raise ValueError(f"field {name!r} has dtype {v.dtype}, which PLY cannot store")

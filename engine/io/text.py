@@ -1,0 +1,162 @@
+"""Plain-text point lists: ``.xyz``, ``.pts``, ``.txt``, ``.csv``.
+
+One point per line, 3 or more numbers separated by spaces, tabs, commas or semicolons.
+Leading non-numeric lines are header lines; a single integer line before the data is a
+point count (Leica PTS writes one) and is checked against the number of rows.
+
+Columns beyond ``x y z``:
+
+* When the last header line names every column, names decide: ``x y z``; ``r g b`` /
+  ``red green blue`` -> colour; ``i`` / ``intensity`` / ``reflectance`` -> intensity;
+  ``nx ny nz`` / ``normal_x ...`` -> normals; other names -> ``cloud.fields``.
+* Otherwise by column count (the common conventions): 3 ``x y z``; 4 ``x y z intensity``;
+  6 ``x y z r g b``; 7 ``x y z intensity r g b`` (Leica PTS); 9 ``x y z r g b nx ny nz``
+  (CloudCompare's export order); 10 ``x y z intensity r g b nx ny nz``; any other count
+  keeps columns 4.. as fields ``column_3``, ``column_4``...
+
+Colours are 0–255 (values above 255 are taken as 16-bit and scaled; fractions in [0, 1] are
+scaled by 255). Intensity is kept as written. A multi-block PTS (several count lines) is
+rejected with a wrong-column-count error on the second count line.
+"""
+from __future__ import annotations
+
+import os
+from typing import Optional
+
+import numpy as np
+
+from ..errors import FormatError
+from ..pointcloud import PointCloud
+from ..progress import Progress
+from ._common import DEFAULT_PARAMS, ReadParams, check_file, colors_to_u8, finish_cloud
+from ._text import iter_text_chunks, parse_rows, split_tokens
+
+__all__ = ["read_text"]
+
+_MAX_HEADER_LINES = 50
+_CHUNK_BYTES = 32 << 20
+_NAME_ROLES = {
+    "x": ("xyz", 0), "y": ("xyz", 1), "z": ("xyz", 2),
+    "r": ("rgb", 0), "g": ("rgb", 1), "b": ("rgb", 2),
+    "red": ("rgb", 0), "green": ("rgb", 1), "blue": ("rgb", 2),
+    "i": ("intensity", None), "intensity": ("intensity", None), "reflectance": ("intensity", None),
+    "nx": ("normals", 0), "ny": ("normals", 1), "nz": ("normals", 2),
+    "normal_x": ("normals", 0), "normal_y": ("normals", 1), "normal_z": ("normals", 2),
+}
+_CONVENTIONS = {
+    3: ["x", "y", "z"],
+    4: ["x", "y", "z", "intensity"],
+    6: ["x", "y", "z", "r", "g", "b"],
+    7: ["x", "y", "z", "intensity", "r", "g", "b"],
+    9: ["x", "y", "z", "r", "g", "b", "nx", "ny", "nz"],
+    10: ["x", "y", "z", "intensity", "r", "g", "b", "nx", "ny", "nz"],
+}
+
+
+def _numbers(tokens):
+    try:
+        return [float(t) for t in tokens]
+    except ValueError:
+        return None
+
+
+def _clean_name(t: str) -> str:
+    return t.strip().strip("/#\"'").strip().lower()
+
+
+def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadParams] = None) -> PointCloud:
+    """Read a text point list (see the module docstring for the column conventions).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    progress, should_stop : callables, optional
+    params : ReadParams, optional
+
+    Returns
+    -------
+    PointCloud
+        ``xyz`` (n, 3) float64 metres; ``colors`` (n, 3) uint8, ``intensity`` (n,) float32,
+        ``normals`` (n, 3) float32 when the columns hold them; other columns in ``fields``
+        (float64).
+
+    Raises
+    ------
+    FormatError
+        No numeric data, fewer than 3 columns, a line with a different column count, a value
+        that is not a number, or a count line that disagrees with the rows.
+    EmptyCloudError
+        No or too few finite points.
+    """
+    params = params or DEFAULT_PARAMS
+    path = check_file(path)
+    p = Progress.wrap(progress, should_stop)
+    size = os.path.getsize(path)
+    with open(path, "rb") as f:
+        header_names = None
+        count = None
+        line_no = 0
+        first = None
+        while first is None:
+            pos = f.tell()
+            raw = f.readline()
+            if not raw:
+                raise FormatError("no numeric point data found", path)
+            line_no += 1
+            text = raw.decode("utf-8", errors="replace")
+            tokens = split_tokens(text)
+            if not tokens:
+                continue
+            vals = _numbers(tokens)
+            if vals is None:
+                if count is not None:
+                    raise FormatError(f"line {line_no}: not a number in {text.strip()[:60]!r}", path)
+                if line_no > _MAX_HEADER_LINES:
+                    raise FormatError(f"no numeric point data in the first {_MAX_HEADER_LINES} lines", path)
+                header_names = [_clean_name(t) for t in tokens]
+                continue
+            if len(vals) == 1 and count is None and float(vals[0]).is_integer():
+                count = int(vals[0])
+                continue
+            if len(vals) < 3:
+                raise FormatError(f"line {line_no}: {len(vals)} values; at least 3 (x y z) are needed", path)
+            first = (pos, line_no, len(vals))
+        pos, first_line, ncols = first
+        f.seek(pos)
+        parts = []
+        for text, line, done in iter_text_chunks(f, _CHUNK_BYTES, first_line):
+            parts.append(parse_rows(text, ncols, path, line, commas=True))
+            p(done / max(size - pos, 1), "reading text")
+    table = np.concatenate(parts) if len(parts) > 1 else parts[0]
+    if count is not None and count != len(table):
+        more = "larger than" if count > len(table) else "smaller than"
+        raise FormatError(f"the count line says {count:,} points, {more} the {len(table):,} rows in the file", path)
+    names = None
+    if header_names is not None and len(header_names) == ncols and {"x", "y", "z"} <= set(header_names):
+        names = header_names
+    if names is None:
+        names = _CONVENTIONS.get(ncols) or ["x", "y", "z"] + [f"column_{k}" for k in range(3, ncols)]
+    arrays = {"xyz": np.empty((len(table), 3)), "rgb": None, "normals": None, "intensity": None}
+    fields = {}
+    for k, name in enumerate(names):
+        role = _NAME_ROLES.get(name)
+        if role is None or (role[1] is None and arrays[role[0]] is not None):
+            fields[name or f"column_{k}"] = table[:, k]
+            continue
+        target, col = role
+        if col is None:
+            arrays[target] = table[:, k]
+        else:
+            if arrays[target] is None:
+                arrays[target] = np.full((len(table), 3), np.nan)
+            arrays[target][:, col] = table[:, k]
+    for target in ("rgb", "normals"):  # incomplete triples become fields
+        a = arrays[target]
+        if a is not None and np.isnan(a).all(axis=0).any():
+            for k, name in enumerate(names):
+                if _NAME_ROLES.get(name, ("",))[0] == target:
+                    fields[name] = table[:, k]
+            arrays[target] = None
+    colors = None if arrays["rgb"] is None else colors_to_u8(arrays["rgb"])
+    return finish_cloud(path, arrays["xyz"], colors=colors, intensity=arrays["intensity"],
+                        normals=arrays["normals"], fields=fields, params=params)
