@@ -36,7 +36,7 @@ def main():
     import pytest
 
     os.chdir(ROOT)
-    code = pytest.main(["-p", "no:cacheprovider", *args])
+    code = pytest.main(["-p", "no:cacheprovider", "-p", "no:dash", *args])
     sys.stdout.flush()
     return int(code)
 
