@@ -184,6 +184,32 @@ class _Assembler:
             for i, name, _ in items:
                 self.plan.append((name, "field:" + base, i))
 
+    def fuse(self, dt: np.dtype):
+        """Group consecutive same-type properties that fill columns 0, 1, 2 of one target
+        (x y z, red green blue, nx ny nz) so a chunk is copied with one strided copy each."""
+        plan, fused = [], []
+        i = 0
+        while i < len(self.plan):
+            trio = self.plan[i:i + 3]
+            if len(trio) == 3 and all(t[1] == trio[0][1] for t in trio) and [t[2] for t in trio] == [0, 1, 2]:
+                f = [dt.fields[t[0]] for t in trio]
+                if f[0][0] == f[1][0] == f[2][0] and f[1][1] == f[0][1] + f[0][0].itemsize \
+                        and f[2][1] == f[1][1] + f[0][0].itemsize:
+                    fused.append((trio[0][1], f[0][0], f[0][1]))
+                    i += 3
+                    continue
+            plan.append(self.plan[i])
+            i += 1
+        self.plan = plan
+        self.fused = [(target, np.dtype({"names": ["v"], "formats": [(base, (3,))], "offsets": [off],
+                                         "itemsize": dt.itemsize})) for target, base, off in fused]
+
+    def put_records(self, start, chunk):
+        """Copy one chunk of a structured array."""
+        for target, view in getattr(self, "fused", ()):
+            self.arrays[target][start:start + len(chunk)] = chunk.view(view)["v"]
+        self.put(start, chunk.__getitem__)
+
     def put(self, start, get):
         """Copy one chunk: ``get(name)`` returns that property's values for the chunk."""
         for name, target, col in self.plan:
@@ -256,14 +282,17 @@ def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadPara
                 raise FormatError(
                     f"truncated binary body: the header declares {n:,} vertices "
                     f"({n * dt.itemsize:,} bytes) but the file holds only {available:,}", path)
+            asm.fuse(dt)
             f.seek(start)
             step = max(int(params.chunk_points), 1)
+            buf = np.empty(min(step, n), dtype=dt)  # one reused buffer: no per-chunk allocation
             for i in range(0, n, step):
                 m = min(step, n - i)
-                chunk = np.fromfile(f, dtype=dt, count=m)
-                if len(chunk) != m:
-                    raise FormatError(f"truncated binary body at vertex {i + len(chunk):,} of {n:,}", path)
-                asm.put(i, lambda nm: chunk[nm])
+                chunk = buf[:m]
+                got = f.readinto(memoryview(chunk.view(np.uint8)))
+                if got != m * dt.itemsize:
+                    raise FormatError(f"truncated binary body at vertex {i + got // dt.itemsize:,} of {n:,}", path)
+                asm.put_records(i, chunk)
                 p((i + m) / max(n, 1), "reading PLY")
     return _finish(path, h, asm, params)
 
