@@ -1,0 +1,549 @@
+"""IFC (IFC2X3 / IFC4 / IFC4X3) and surface meshes (OBJ / PLY / ...) → BuildingModel.
+
+:func:`read_ifc` tessellates the walls, slabs, spaces and doors of a file with
+``ifcopenshell.geom`` (world coordinates, metres whatever the file's length unit), assigns
+each to its storey (spatial containment, aggregation, or the wall a door fills), and
+derives the topology from the space boundaries:
+
+* adjacency ``(space, space, via=wall)`` and connectivity ``(space, space, via=door)`` from
+  pairs of boundaries pointing at each other (``CorrespondingBoundary``); in files without
+  such pairs, two spaces bounded by the same wall on opposite sides of it are adjacent and
+  two spaces bounded by the same door are connected;
+* virtual boundaries (``IfcVirtualElement``) give relations without a wall or door.
+
+Shapes are vertical prisms (:meth:`Polyhedron.prism`) when the tessellation is one,
+otherwise triangle meshes. Files written by :func:`engine.ifc.write_ifc` come back in the
+model's own frame with their shape ids, supports and attributes; other files keep their
+world coordinates (minus a whole-metre offset when they are far from the origin).
+"""
+from __future__ import annotations
+
+import logging
+import os
+import re
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..errors import FormatError, InputError
+from ..model import BuildingModel, Polyhedron, Provenance, Relation, Shape, ShapeType, Storey
+from ..progress import Progress
+from .common import (PSET_PROVENANCE, PSET_SHAPE, PSET_STOREY, PSET_SUPPORT, READABLE_SCHEMAS, check_path,
+                     loads, require_ifcopenshell)
+
+__all__ = ["IfcReadParams", "read_ifc", "read_mesh", "read_reference", "MESH_EXTENSIONS"]
+
+log = logging.getLogger(__name__)
+
+MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
+"""Surface-mesh formats :func:`read_mesh` accepts (through trimesh)."""
+
+
+@dataclass(frozen=True)
+class IfcReadParams:
+    """Parameters of :func:`read_ifc` (SI units)."""
+
+    element_classes: tuple = ("IfcWall", "IfcSlab", "IfcSpace", "IfcDoor", "IfcExternalSpatialElement")
+    """IFC classes read (with their subclasses, e.g. IfcWallStandardCase)."""
+    prism_tol: float = 1e-4
+    """Height tolerance (m) and normal tolerance (|n_z| of vertical / 1 - |n_z| of horizontal
+    faces) for recognising a tessellated vertical prism."""
+    prism_area_rtol: float = 1e-3
+    """Relative tolerance on the side-face and top/bottom areas of a recognised prism."""
+    recentre_beyond: float = 1e4
+    """Coordinates (m) beyond which a foreign file is moved near the origin (``model.offset``)."""
+    storey_tol: float = 0.05
+    """Tolerance (m) when a shape is put in a storey by its height (no containment found)."""
+    threads: int = 2
+    """Tessellation threads (booleans of walls with many openings dominate the reading time)."""
+
+
+# --------------------------------------------------------------------------- entry points
+def read_reference(path: str | os.PathLike, **kwargs) -> BuildingModel:
+    """Read a reference model: ``.ifc`` through :func:`read_ifc`, meshes through :func:`read_mesh`."""
+    p = check_path(path)
+    ext = os.path.splitext(p)[1].lower()
+    if ext == ".ifc":
+        return read_ifc(p, **kwargs)
+    if ext in MESH_EXTENSIONS:
+        return read_mesh(p, **kwargs)
+    raise InputError(f"unknown reference format {ext!r}; expected .ifc or one of {list(MESH_EXTENSIONS)}", p)
+
+
+def read_ifc(path: str | os.PathLike, *, params: Optional[IfcReadParams] = None, progress=None,
+             should_stop=None) -> BuildingModel:
+    """Read an IFC file into a :class:`BuildingModel`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        An IFC-SPF (``.ifc``) file, schema IFC2X3, IFC4 or IFC4X3.
+    params : IfcReadParams, optional
+    progress, should_stop : callbacks, see :class:`engine.progress.Progress`.
+
+    Returns
+    -------
+    BuildingModel
+        Shapes: WALL, SLAB, INTERIOR / EXTERIOR spaces, DOOR — geometry in metres, z up,
+        ``storey`` = index into ``model.storeys`` (sorted by height). Relations from the
+        space boundaries. ``transform``/``offset`` map back to the file's coordinates.
+
+    Raises
+    ------
+    InputError — missing file; the file has no IfcBuildingStorey.
+    FormatError — not an IFC-SPF file, an unsupported schema, or unreadable content.
+    """
+    params = params or IfcReadParams()
+    p = Progress.wrap(progress, should_stop)
+    path = check_path(path)
+    require_ifcopenshell("reading IFC")
+    f = _open(path)
+    p(0.05, "opened")
+    return _Reader(f, path, params, p).run()
+
+
+def _open(path: str):
+    import ifcopenshell
+
+    with open(path, "rb") as fh:
+        head = fh.read(8192)
+    text = head.decode("latin-1", errors="replace")
+    if "ISO-10303-21" not in text:
+        if head[:2] == b"PK":
+            raise FormatError("is a ZIP archive (ifcZIP?): unzip it and read the .ifc inside", path)
+        raise FormatError("not an IFC file (no ISO-10303-21 header)", path)
+    m = re.search(r"FILE_SCHEMA\s*\(\s*\(\s*'([^']*)'", text, flags=re.I)
+    if m is None:
+        raise FormatError("IFC header has no FILE_SCHEMA", path)
+    schema = m.group(1).strip().upper()
+    if not any(schema == s or schema.startswith(s + "_") for s in READABLE_SCHEMAS):
+        raise FormatError(f"unsupported IFC schema {schema!r}; readable: {list(READABLE_SCHEMAS)}", path)
+    try:
+        f = ifcopenshell.open(path)
+    except Exception as e:  # ifcopenshell raises plain errors on bad content
+        raise FormatError(f"cannot parse the IFC file: {e}", path) from None
+    return f
+
+
+# --------------------------------------------------------------------------- reader
+class _Reader:
+    def __init__(self, f, path, params: IfcReadParams, p):
+        import ifcopenshell.util.element
+        import ifcopenshell.util.placement
+        import ifcopenshell.util.unit
+
+        self.ue = ifcopenshell.util.element
+        self.up = ifcopenshell.util.placement
+        self.f, self.path, self.params, self.p = f, path, params, p
+        self.scale = float(ifcopenshell.util.unit.calculate_unit_scale(f))
+
+    def _pset(self, e, name) -> dict:
+        return self.ue.get_psets(e).get(name, {})
+
+    def run(self) -> BuildingModel:
+        f, prm = self.f, self.params
+        storeys = list(f.by_type("IfcBuildingStorey"))
+        if not storeys:
+            raise InputError("the IFC file has no storeys (IfcBuildingStorey)", self.path)
+        projects = f.by_type("IfcProject")
+        prov = self._pset(projects[0], PSET_PROVENANCE) if projects else {}
+        self.ours = bool(prov) and "Transform" in prov
+        if self.ours:
+            t = np.asarray(loads(prov.get("Transform"), np.eye(4).tolist()), dtype=np.float64).reshape(4, 4)
+            offset = np.asarray(loads(prov.get("Offset"), [0, 0, 0]), dtype=np.float64).reshape(3)
+        else:
+            t, offset = np.eye(4), np.zeros(3)
+        elements = []
+        for cls in prm.element_classes:
+            try:
+                elements.extend(f.by_type(cls))
+            except RuntimeError:  # class not in this schema (IfcExternalSpatialElement in IFC2X3)
+                continue
+        elements = list({e.id(): e for e in elements}.values())
+        meshes = self._tessellate(elements)
+        self.p(0.8, "topology")
+        # frame: file coordinates (metres) -> model frame
+        if not self.ours and meshes:
+            allv = np.vstack([v for v, _ in meshes.values()])
+            if np.abs(allv).max() > prm.recentre_beyond:
+                offset = np.floor(allv.min(axis=0))
+                offset[2] = 0.0
+        tinv = np.linalg.inv(t)
+
+        def to_model(v):
+            q = np.asarray(v, dtype=np.float64).reshape(-1, 3) - offset
+            return q @ tinv[:3, :3].T + tinv[:3, 3]
+
+        # storeys
+        info = []
+        for s in storeys:
+            sp = self._pset(s, PSET_STOREY)
+            z = None
+            if s.ObjectPlacement is not None:
+                mat = self.up.get_local_placement(s.ObjectPlacement)
+                z = float(to_model(mat[:3, 3] * self.scale)[0, 2])
+            elev = None if s.Elevation is None else float(s.Elevation) * self.scale
+            if sp.get("FloorZ") is not None:
+                z = float(sp["FloorZ"])
+            if z is None:
+                z = elev if elev is not None else 0.0
+            info.append((z, s, elev, sp))
+        info.sort(key=lambda x: (x[0], x[1].id()))
+        storey_index = {s.id(): i for i, (_, s, _, _) in enumerate(info)}
+
+        shapes = {}
+        ids = {}
+        for e in elements:
+            if e.id() not in meshes:
+                continue
+            v, tri = meshes[e.id()]
+            v = to_model(v)
+            shape = self._shape(e, v, tri, storey_index, info)
+            if shape is None:
+                continue
+            if shape.id in shapes:  # duplicate ids (copied GlobalIds): keep both
+                shape = shape.with_(id=f"{shape.id}#{e.id()}")
+            shapes[shape.id] = shape
+            ids[e.id()] = shape.id
+
+        shapes = self._hierarchy(shapes, ids, elements)
+        st_objs = []
+        for i, (z, s, elev, sp) in enumerate(info):
+            ceiling = sp.get("CeilingZ")
+            if ceiling is None:
+                tops = [sh.bounds[1, 2] for sh in shapes.values()
+                        if sh.storey == i and sh.type == ShapeType.INTERIOR]
+                if tops:
+                    ceiling = max(tops)
+                elif i + 1 < len(info):
+                    ceiling = info[i + 1][0]
+                else:
+                    tops = [sh.bounds[1, 2] for sh in shapes.values() if sh.storey == i]
+                    ceiling = max(tops) if tops else z
+            st_objs.append(Storey(i, float(z), float(ceiling), s.Name or s.LongName or f"Storey {i}",
+                                  elev))
+        relations = self._relations(ids, shapes)
+        if self.ours:
+            provenance = Provenance(prov.get("Method", "") or "", loads(prov.get("Parameters"), {}) or {},
+                                    prov.get("Seed"), loads(prov.get("Timings"), {}) or {},
+                                    loads(prov.get("Trace"), {}) or {}, self.path, prov.get("Software", "") or "")
+            name = prov.get("ModelName") or (projects[0].Name or "")
+        else:
+            app = ""
+            for oh in f.by_type("IfcApplication")[:1]:
+                app = f"{oh.ApplicationFullName or ''} {oh.Version or ''}".strip()
+            provenance = Provenance("ifc", {}, None, {}, {}, self.path, app)
+            name = (projects[0].Name or "") if projects else ""
+        model = BuildingModel(shapes=tuple(shapes.values()), storeys=tuple(st_objs), relations=tuple(relations),
+                              transform=t, offset=offset, provenance=provenance,
+                              name=name or os.path.splitext(os.path.basename(self.path))[0])
+        self.p(1.0, "IFC read")
+        log.info("read %s: %s", self.path, model.summary())
+        return model
+
+    # ------------------------------------------------------------------ geometry
+    def _tessellate(self, elements) -> dict:
+        """{entity id: (vertices (n, 3) float64 metres in file coordinates, triangles (m, 3) int64)}."""
+        import ifcopenshell.geom
+
+        out = {}
+        if not elements:
+            return out
+        settings = ifcopenshell.geom.settings()
+        settings.set("use-world-coords", True)
+        settings.set("weld-vertices", True)
+        it = ifcopenshell.geom.iterator(settings, self.f, max(1, int(self.params.threads)), include=elements)
+        n = len(elements)
+        try:
+            ok = it.initialize()
+        except Exception as e:
+            raise FormatError(f"cannot tessellate the IFC geometry: {e}", self.path) from None
+        if not ok:
+            log.warning("%s: no geometry could be tessellated", self.path)
+            return out
+        k = 0
+        while True:
+            sh = it.get()
+            v = np.asarray(sh.geometry.verts, dtype=np.float64).reshape(-1, 3)
+            t = np.asarray(sh.geometry.faces, dtype=np.int64).reshape(-1, 3)
+            if len(t):
+                out[int(sh.id)] = (v, t)
+            k += 1
+            if k % 16 == 0:
+                self.p(0.05 + 0.75 * k / n, "tessellating")
+            if not it.next():
+                break
+        return out
+
+    def _storey_of(self, e, storey_index) -> Optional[int]:
+        seen = set()
+        q = e
+        while q is not None and q.id() not in seen:
+            seen.add(q.id())
+            if q.id() in storey_index:
+                return storey_index[q.id()]
+            nxt = self.ue.get_container(q)
+            if nxt is None:
+                nxt = self.ue.get_aggregate(q)
+            if nxt is None and q.is_a("IfcDoor"):
+                for rel in getattr(q, "FillsVoids", ()) or ():
+                    op = rel.RelatingOpeningElement
+                    for vrel in getattr(op, "VoidsElements", ()) or ():
+                        nxt = vrel.RelatingBuildingElement
+            q = nxt
+        return None
+
+    def _shape(self, e, v, tri, storey_index, info) -> Optional[Shape]:
+        prm = self.params
+        if e.is_a("IfcWall"):
+            kind = ShapeType.WALL
+        elif e.is_a("IfcSlab"):
+            kind = ShapeType.SLAB
+        elif e.is_a("IfcDoor"):
+            kind = ShapeType.DOOR
+        elif e.is_a("IfcSpace"):
+            kind = ShapeType.INTERIOR
+            ext = getattr(e, "InteriorOrExteriorSpace", None) == "EXTERNAL" or \
+                getattr(e, "PredefinedType", None) == "EXTERNAL"
+            if ext:
+                kind = ShapeType.EXTERIOR
+        elif e.is_a("IfcExternalSpatialElement"):
+            kind = ShapeType.EXTERIOR
+        else:
+            return None
+        geom = _polyhedron(v, tri, prm)
+        if geom is None:
+            return None
+        ps = self._pset(e, PSET_SHAPE) if self.ours else {}
+        sup = self._pset(e, PSET_SUPPORT) if self.ours else {}
+        storey = self._storey_of(e, storey_index)
+        if storey is None:
+            zmin = geom.bounds[0, 2]
+            below = [i for i, (z, *_rest) in enumerate(info) if z <= zmin + prm.storey_tol]
+            storey = below[-1] if below else (0 if info else -1)
+        if ps.get("StoreyIndex") is not None and int(ps["StoreyIndex"]) < 0:
+            storey = -1
+        attributes = dict(loads(ps.get("Attributes"), {}) or {})
+        if kind == ShapeType.DOOR:
+            if getattr(e, "OverallWidth", None):
+                attributes.setdefault("width", float(e.OverallWidth) * self.scale)
+            if getattr(e, "OverallHeight", None):
+                attributes.setdefault("height", float(e.OverallHeight) * self.scale)
+        if kind == ShapeType.WALL and "thickness" not in attributes:
+            qto = self.ue.get_psets(e, qtos_only=True).get("Qto_WallBaseQuantities", {})
+            if qto.get("Width"):
+                attributes["thickness"] = float(qto["Width"]) * self.scale
+        if kind in (ShapeType.INTERIOR, ShapeType.EXTERIOR):
+            name = getattr(e, "LongName", None) or ("" if ps else (e.Name or ""))
+        else:
+            name = e.Name or ""
+        grid = loads(ps.get("Grid"))
+        return Shape(
+            id=str(ps.get("ShapeId") or e.GlobalId), type=kind, geometry=geom, storey=int(storey), name=name,
+            terminal=bool(ps.get("Terminal", kind != ShapeType.INTERIOR)), active=bool(ps.get("Active", True)),
+            grid=None if grid is None else tuple(grid),
+            support={k: float(x) for k, x in sup.items() if k != "id" and isinstance(x, (int, float))},
+            attributes=attributes, log=tuple((ps.get("Log") or "").split("\n")) if ps.get("Log") else (),
+        )
+
+    def _hierarchy(self, shapes: dict, ids: dict, elements) -> dict:
+        """Parents and children: space parts in their space, doors in their wall."""
+        parent = {}
+        for e in elements:
+            if e.id() not in ids:
+                continue
+            sid = ids[e.id()]
+            if e.is_a("IfcSpace"):
+                agg = self.ue.get_aggregate(e)
+                if agg is not None and agg.id() in ids:
+                    parent[sid] = ids[agg.id()]
+            elif e.is_a("IfcDoor"):
+                for rel in getattr(e, "FillsVoids", ()) or ():
+                    for vrel in getattr(rel.RelatingOpeningElement, "VoidsElements", ()) or ():
+                        w = vrel.RelatingBuildingElement
+                        if w.id() in ids:
+                            parent[sid] = ids[w.id()]
+        children = {}
+        for c, pid in parent.items():
+            children.setdefault(pid, []).append(c)
+        out = {}
+        for sid, s in shapes.items():
+            changes = {}
+            if sid in parent:
+                changes["parent"] = parent[sid]
+                if s.is_space and not self.ours:
+                    changes["active"] = False
+            if sid in children:
+                changes["children"] = tuple(children[sid])
+            out[sid] = s.with_(**changes) if changes else s
+        return out
+
+    # ------------------------------------------------------------------ topology
+    def _relations(self, ids: dict, shapes: dict) -> list:
+        f = self.f
+        bounds = list(f.by_type("IfcRelSpaceBoundary"))
+        by_elem = {}
+        paired = any(getattr(b, "CorrespondingBoundary", None) is not None for b in bounds)
+        rel = []
+        for b in bounds:
+            sp, el = b.RelatingSpace, b.RelatedBuildingElement
+            if sp is None or el is None or sp.id() not in ids:
+                continue
+            by_elem.setdefault(el.id(), {})[ids[sp.id()]] = b
+        for eid, spaces in by_elem.items():
+            el = f.by_id(eid)
+            if el.is_a("IfcVirtualElement"):
+                kinds = (self._pset(el, PSET_SHAPE).get("RelationKinds") or "adjacency,connectivity").split(",")
+                via = None
+            elif el.is_a("IfcDoor"):
+                kinds, via = ("connectivity",), ids.get(eid)
+            else:
+                kinds, via = ("adjacency",), ids.get(eid)
+                if via is None:  # an element we did not read (a column, a window, ...)
+                    continue
+            pairs = set()
+            if paired:
+                for a, b in spaces.items():
+                    cb = getattr(b, "CorrespondingBoundary", None)
+                    if cb is not None and cb.RelatingSpace is not None and cb.RelatingSpace.id() in ids:
+                        other = ids[cb.RelatingSpace.id()]
+                        if other != a:
+                            pairs.add(tuple(sorted((a, other))))
+            else:
+                names = sorted(spaces)
+                for i in range(len(names)):
+                    for j in range(i + 1, len(names)):
+                        if kinds == ("adjacency",) and via in shapes and \
+                                not _opposite_sides(shapes[via], shapes[names[i]], shapes[names[j]]):
+                            continue
+                        pairs.add((names[i], names[j]))
+            for a, b in sorted(pairs):
+                for k in kinds:
+                    if k:
+                        rel.append(Relation(k.strip(), a, b, via))
+        return rel
+
+
+def _opposite_sides(wall: Shape, a: Shape, b: Shape) -> bool:
+    """True when the centroids of ``a`` and ``b`` lie on opposite sides of ``wall``'s thin axis."""
+    sc = wall.scope
+    n = sc.axes[int(np.argmin(sc.size[:2]))]
+    c = sc.center
+    sa = float((a.centroid - c) @ n)
+    sb = float((b.centroid - c) @ n)
+    return sa * sb < 0
+
+
+# --------------------------------------------------------------------------- meshes
+def _polyhedron(v: np.ndarray, tri: np.ndarray, prm: IfcReadParams) -> Optional[Polyhedron]:
+    """A vertical prism when the triangle mesh is one, else the triangles themselves."""
+    if len(tri) == 0:
+        return None
+    a = v[tri[:, 1]] - v[tri[:, 0]]
+    b = v[tri[:, 2]] - v[tri[:, 0]]
+    cr = np.cross(a, b)
+    area2 = np.linalg.norm(cr, axis=1)
+    keep = area2 > 1e-12
+    tri, cr, area2 = tri[keep], cr[keep], area2[keep]
+    if len(tri) == 0:
+        return None
+    prism = _as_prism(v, tri, cr / area2[:, None], area2 / 2, prm)
+    if prism is not None:
+        return prism
+    used = np.unique(tri)
+    remap = np.full(len(v), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return Polyhedron(v[used], [tuple(t) for t in remap[tri]])
+
+
+def _as_prism(v, tri, normals, areas, prm: IfcReadParams) -> Optional[Polyhedron]:
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    tol = prm.prism_tol
+    z = v[np.unique(tri), 2]
+    zmin, zmax = z.min(), z.max()
+    h = zmax - zmin
+    if h <= tol or not np.all((z - zmin < tol) | (zmax - z < tol)):
+        return None
+    nz = normals[:, 2]
+    top, bottom, side = nz > 1 - tol, nz < -(1 - tol), np.abs(nz) < tol
+    if not np.all(top | bottom | side):
+        return None
+    up = unary_union([Polygon(v[t, :2]) for t in tri[top]]).buffer(0)
+    down = unary_union([Polygon(v[t, :2]) for t in tri[bottom]]).buffer(0)
+    if up.geom_type != "Polygon" or len(up.interiors) or up.area <= 0:
+        return None
+    rt = prm.prism_area_rtol
+    if abs(down.area - up.area) > rt * up.area or up.symmetric_difference(down).area > rt * up.area:
+        return None
+    if abs(areas[side].sum() - up.length * h) > rt * up.length * h:
+        return None
+    ring = np.asarray(up.simplify(tol).exterior.coords)[:-1]
+    if len(ring) < 3:
+        return None
+    return Polyhedron.prism(ring, zmin, zmax)
+
+
+def read_mesh(path: str | os.PathLike, *, default_type: ShapeType | str = ShapeType.INTERIOR,
+              **_ignored) -> BuildingModel:
+    """Read a surface mesh (OBJ, PLY, STL, OFF, glTF) as a reference model.
+
+    Each object / group of the file becomes a shape; its type is taken from its name
+    ("wall", "slab"/"floor"/"ceiling", "door", "space"/"room") and is ``default_type``
+    otherwise, so :meth:`BuildingModel.surfaces` labels its faces wall / floor / ceiling by
+    their normals. Faces are the mesh triangles; coordinates are kept (metres, z up);
+    ``storey`` is -1 and the model has no storeys.
+
+    Raises
+    ------
+    InputError — missing file. FormatError — unreadable, or a point cloud without faces.
+    """
+    p = check_path(path)
+    try:
+        import trimesh
+    except ImportError:  # pragma: no cover
+        from ..errors import MissingDependencyError
+
+        raise MissingDependencyError("trimesh", "reading meshes") from None
+    default_type = ShapeType.parse(default_type)
+    try:
+        loaded = trimesh.load(p, process=False)
+    except Exception as e:
+        raise FormatError(f"cannot read the mesh: {e}", p) from None
+    if isinstance(loaded, trimesh.Scene):
+        items = []
+        for node in loaded.graph.nodes_geometry:
+            tf, gname = loaded.graph[node]
+            g = loaded.geometry[gname]
+            if isinstance(g, trimesh.Trimesh):
+                items.append((str(node), g.copy().apply_transform(tf)))
+    else:
+        items = [(os.path.splitext(os.path.basename(p))[0], loaded)]
+    items = [(n, g) for n, g in items if isinstance(g, trimesh.Trimesh) and len(g.faces)]
+    if not items:
+        raise FormatError("the file holds no triangles (a point cloud, or an empty mesh)", p)
+    shapes = []
+    for k, (name, g) in enumerate(items):
+        v = np.asarray(g.vertices, dtype=np.float64)
+        t = np.asarray(g.faces, dtype=np.int64)
+        if not np.all(np.isfinite(v)):
+            raise FormatError(f"object {name!r} has non-finite vertices", p)
+        low = name.lower()
+        kind = default_type
+        for words, st in ((("wall",), ShapeType.WALL), (("slab", "floor", "ceiling", "roof"), ShapeType.SLAB),
+                          (("door",), ShapeType.DOOR), (("space", "room"), ShapeType.INTERIOR)):
+            if any(w in low for w in words):
+                kind = st
+                break
+        a = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
+        t = t[a > 1e-12]
+        if len(t) == 0:
+            continue
+        shapes.append(Shape(f"mesh{k}", kind, Polyhedron(v, [tuple(x) for x in t]), storey=-1, name=name,
+                            terminal=True))
+    if not shapes:
+        raise FormatError("the mesh has only degenerate triangles", p)
+    return BuildingModel(shapes=tuple(shapes), provenance=Provenance("mesh", source=p),
+                         name=os.path.splitext(os.path.basename(p))[0])

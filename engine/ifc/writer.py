@@ -1,0 +1,716 @@
+"""BuildingModel → IFC4 (or IFC4X3), written with ``ifcopenshell.api``.
+
+The file follows the "simple model from scratch" recipe of IfcOpenShell: project, SI units,
+representation contexts (Model/Body, Model/Axis, Model/FootPrint), then the spatial tree
+site → building → storeys → spaces, then the elements:
+
+* ``IfcSpace`` per interior space; a merged space aggregates its parts (``PARTIAL``
+  sub-spaces); ``IfcExternalSpatialElement`` per exterior space;
+* ``IfcWall`` / ``IfcSlab`` (an ``IfcExtrudedAreaSolid`` when the shape is a vertical
+  prism, an ``IfcFacetedBrep`` otherwise), ``IfcDoor`` filling an ``IfcOpeningElement``
+  that voids its wall;
+* ``IfcRelSpaceBoundary2ndLevel`` for every adjacency (space–wall–space) and connectivity
+  (space–door–space) relation of the model, the two sides pointing at each other through
+  ``CorrespondingBoundary``; relations without a wall or door go through an
+  ``IfcVirtualElement`` (``VIRTUAL`` boundaries); walls and slabs that touch a space without
+  a relation get a one-sided boundary. Connection geometry is the common face region.
+* base quantities (``Qto_*BaseQuantities``), the property sets ``Indoor_Provenance``
+  (project), ``Indoor_Shape`` and ``Indoor_Support`` (products), ``Indoor_Storey``;
+* colours by type (surface styles).
+
+Geometry is written in the model's original frame: the site placement carries
+``model.offset`` and the rigid ``model.transform`` (a non-rigid transform is applied to the
+vertices instead), so world coordinates in the file are ``p_file = T p_model + offset``.
+Every placement below the site is a pure translation.
+"""
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..errors import InputError
+from ..fileutil import atomic_path
+from ..model import BuildingModel, Polyhedron, Shape, ShapeType
+from ..progress import Progress
+from .common import (PSET_PROVENANCE, PSET_SHAPE, PSET_STOREY, PSET_SUPPORT, WRITABLE_SCHEMAS, dumps,
+                     require_ifcopenshell, rigid_part)
+
+__all__ = ["IfcWriteParams", "write_ifc", "build_ifc", "TYPE_COLOURS"]
+
+log = logging.getLogger(__name__)
+
+TYPE_COLOURS = {
+    ShapeType.INTERIOR: ((0.55, 0.75, 0.95), 0.7),
+    ShapeType.EXTERIOR: ((0.60, 0.85, 0.55), 0.85),
+    ShapeType.WALL: ((0.85, 0.83, 0.78), 0.0),
+    ShapeType.SLAB: ((0.62, 0.62, 0.65), 0.0),
+    ShapeType.DOOR: ((0.65, 0.42, 0.22), 0.0),
+}
+"""Surface colour (red, green, blue in 0..1) and transparency (0 opaque .. 1 clear) per type."""
+
+
+@dataclass(frozen=True)
+class IfcWriteParams:
+    """Parameters of :func:`write_ifc` (SI units)."""
+
+    opening_margin: float = 0.01
+    """How far (m) a door's opening reaches beyond each face of its wall, so the void cuts
+    cleanly through coplanar faces."""
+    boundary_gap: float = 0.05
+    """Largest distance (m) between a space face and an element face that still bound each
+    other (the faces must also be anti-parallel)."""
+    boundary_cos: float = 0.996
+    """Anti-parallel test for bounding faces: ``-n_space · n_element`` must reach this
+    (cos 5°)."""
+    min_boundary_area: float = 1e-3
+    """Smallest common face area (m²) written as a space boundary."""
+    rigid_tol: float = 1e-6
+    """Tolerance on ``RᵀR = I`` for the model transform to go into the site placement."""
+    geometric_boundaries: bool = True
+    """Also write one-sided boundaries for walls and slabs touching a space without a relation."""
+
+
+# --------------------------------------------------------------------------- public API
+def write_ifc(model: BuildingModel, path: str | os.PathLike, *, schema: str = "IFC4",
+              params: Optional[IfcWriteParams] = None, progress=None, should_stop=None) -> str:
+    """Write ``model`` as an IFC file at ``path`` (temporary name, then moved into place).
+
+    Parameters
+    ----------
+    model : BuildingModel
+        Geometry in metres in the model (aligned) frame; ``model.transform`` and
+        ``model.offset`` give the original frame the file is written in.
+    path : str or path-like
+        Output file (``.ifc``); its folder is created when missing.
+    schema : {"IFC4", "IFC4X3"}
+    params : IfcWriteParams, optional
+    progress, should_stop : callbacks, see :class:`engine.progress.Progress`.
+
+    Returns
+    -------
+    str — the path written.
+
+    Raises
+    ------
+    InputError — unsupported schema, or a model with nothing to write.
+    """
+    path = os.fspath(path)
+    f = build_ifc(model, schema=schema, params=params, progress=progress, should_stop=should_stop,
+                  path=path)
+    with atomic_path(path, suffix=".ifc") as tmp:
+        f.write(tmp)
+    log.info("wrote %s (%d entities)", path, len(list(f)))
+    return path
+
+
+def build_ifc(model: BuildingModel, *, schema: str = "IFC4", params: Optional[IfcWriteParams] = None,
+              progress=None, should_stop=None, path: Optional[str] = None):
+    """Build the ``ifcopenshell.file`` that :func:`write_ifc` writes (nothing is written)."""
+    require_ifcopenshell("writing IFC")
+    schema = str(schema).upper()
+    if schema not in WRITABLE_SCHEMAS:
+        raise InputError(f"cannot write IFC schema {schema!r}; choose one of {list(WRITABLE_SCHEMAS)}", path)
+    if not any(s.type != ShapeType.NONE for s in model.shapes):
+        raise InputError("the model has no shapes to write", path)
+    p = Progress.wrap(progress, should_stop)
+    return _Writer(model, schema, params or IfcWriteParams(), p).run()
+
+
+# --------------------------------------------------------------------------- writer
+class _Writer:
+    def __init__(self, model: BuildingModel, schema: str, params: IfcWriteParams, p):
+        import ifcopenshell
+        import ifcopenshell.api.aggregate  # noqa: F401  (sub-modules load on import)
+        import ifcopenshell.api.boundary  # noqa: F401
+        import ifcopenshell.api.context  # noqa: F401
+        import ifcopenshell.api.feature  # noqa: F401
+        import ifcopenshell.api.geometry  # noqa: F401
+        import ifcopenshell.api.project  # noqa: F401
+        import ifcopenshell.api.pset  # noqa: F401
+        import ifcopenshell.api.root  # noqa: F401
+        import ifcopenshell.api.spatial  # noqa: F401
+        import ifcopenshell.api.style  # noqa: F401
+        import ifcopenshell.api.unit  # noqa: F401
+
+        self.api = ifcopenshell.api
+        self.model = model
+        self.schema = schema
+        self.params = params
+        self.p = p
+        self.f = ifcopenshell.api.project.create_file(version=schema)
+        self.origin = {}  # ifc entity id -> (3,) absolute placement origin in the model frame
+        self.ent = {}  # shape id -> ifc product
+        self.geom = {}  # shape id -> Polyhedron in the written frame
+        self.styles = {}
+        self.contained = {}  # storey entity id -> list of products
+
+    # ------------------------------------------------------------------ frame
+    def _frame(self):
+        m = self.model
+        t = np.asarray(m.transform, dtype=np.float64)
+        if rigid_part(t, self.params.rigid_tol):
+            site = t.copy()
+            site[:3, 3] += m.offset
+            bake = None
+        else:
+            log.warning("model transform is not rigid: applying it to the vertices")
+            site = np.eye(4)
+            site[:3, 3] = m.offset
+            bake = t
+        self.site_matrix = site
+        for s in m.shapes:
+            g = s.geometry
+            if bake is not None:
+                v = g.vertices @ bake[:3, :3].T + bake[:3, 3]
+                g = Polyhedron(v, g.faces)
+            self.geom[s.id] = g
+        self.storey_z = []
+        for st in m.storeys:
+            z = st.floor_z if bake is None else float((bake @ [0.0, 0.0, st.floor_z, 1.0])[2])
+            self.storey_z.append(z)
+
+    # ------------------------------------------------------------------ helpers
+    def _point(self, xyz):
+        return self.f.createIfcCartesianPoint([float(c) for c in xyz])
+
+    def _axis2(self, location, z=None, x=None):
+        f = self.f
+        return f.createIfcAxis2Placement3D(
+            self._point(location),
+            None if z is None else f.createIfcDirection([float(c) for c in z]),
+            None if x is None else f.createIfcDirection([float(c) for c in x]))
+
+    def _placement(self, entity, parent, origin):
+        """Local placement of ``entity`` at absolute model-frame ``origin`` relative to ``parent``."""
+        origin = np.asarray(origin, dtype=np.float64)
+        rel_to = None
+        rel = origin
+        if parent is not None:
+            rel_to = parent.ObjectPlacement
+            rel = origin - self.origin[parent.id()]
+        entity.ObjectPlacement = self.f.createIfcLocalPlacement(rel_to, self._axis2(rel))
+        self.origin[entity.id()] = origin
+
+    def _pset(self, product, name, props):
+        props = {k: v for k, v in props.items() if v is not None}
+        if not props:
+            return
+        for k, v in list(props.items()):
+            if isinstance(v, str) and len(v) > 255:
+                props[k] = self.f.createIfcText(v)
+        pset = self.api.pset.add_pset(self.f, product=product, name=name)
+        self.api.pset.edit_pset(self.f, pset=pset, properties=props)
+
+    def _qto(self, product, name, props):
+        props = {k: float(v) for k, v in props.items() if v is not None and np.isfinite(v)}
+        if props:
+            q = self.api.pset.add_qto(self.f, product=product, name=name)
+            self.api.pset.edit_qto(self.f, qto=q, properties=props)
+
+    def _style(self, shape_type):
+        if shape_type not in self.styles:
+            rgb, transparency = TYPE_COLOURS[shape_type]
+            st = self.api.style.add_style(self.f, name=f"Indoor {shape_type.value}")
+            self.api.style.add_surface_style(
+                self.f, style=st, ifc_class="IfcSurfaceStyleShading",
+                attributes={"SurfaceColour": {"Name": None, "Red": rgb[0], "Green": rgb[1], "Blue": rgb[2]},
+                            "Transparency": transparency})
+            self.styles[shape_type] = st
+        return self.styles[shape_type]
+
+    def _polyline(self, pts2or3, closed=True):
+        pts = [self.f.createIfcCartesianPoint([float(c) for c in q]) for q in pts2or3]
+        if closed:
+            pts.append(pts[0])
+        return self.f.createIfcPolyline(pts)
+
+    def _solid(self, g: Polyhedron, origin):
+        """(item, representation type) of polyhedron ``g`` relative to ``origin`` (3,)."""
+        fp = g.footprint()
+        zmin, zmax = g.bounds[:, 2]
+        if fp is not None and zmax - zmin > 0:
+            fp = _clean_ring(fp - origin[:2])
+            if fp is not None:
+                f = self.f
+                profile = f.createIfcArbitraryClosedProfileDef("AREA", None, self._polyline(fp))
+                solid = f.createIfcExtrudedAreaSolid(
+                    profile, self._axis2((0.0, 0.0, zmin - origin[2])), f.createIfcDirection([0.0, 0.0, 1.0]),
+                    float(zmax - zmin))
+                return solid, "SweptSolid"
+        return self._brep(g, origin), "Brep"
+
+    def _brep(self, g: Polyhedron, origin):
+        f = self.f
+        pts = [f.createIfcCartesianPoint([float(c) for c in v]) for v in g.vertices - origin]
+        faces = []
+        for face in g.faces:
+            idx = [i for k, i in enumerate(face) if i != face[k - 1]]  # drop repeated vertices
+            if len(idx) < 3:
+                continue
+            loop = f.createIfcPolyLoop([pts[i] for i in idx])
+            faces.append(f.createIfcFace([f.createIfcFaceOuterBound(loop, True)]))
+        return f.createIfcFacetedBrep(f.createIfcClosedShell(faces))
+
+    def _body(self, product, g: Polyhedron, shape_type, origin, extra=()):
+        item, rtype = self._solid(g, origin)
+        rep = self.f.createIfcShapeRepresentation(self.body, "Body", rtype, [item])
+        self.api.style.assign_representation_styles(self.f, shape_representation=rep,
+                                                    styles=[self._style(shape_type)])
+        reps = [rep] + list(extra)
+        product.Representation = self.f.createIfcProductDefinitionShape(None, None, reps)
+        return rtype
+
+    # ------------------------------------------------------------------ run
+    def run(self):
+        api, f, m, p = self.api, self.f, self.model, self.p
+        self._frame()
+        p(0.02, "project")
+        project = api.root.create_entity(f, ifc_class="IfcProject", name=m.name or "Indoor model")
+        length = api.unit.add_si_unit(f, unit_type="LENGTHUNIT")
+        area = api.unit.add_si_unit(f, unit_type="AREAUNIT")
+        volume = api.unit.add_si_unit(f, unit_type="VOLUMEUNIT")
+        angle = api.unit.add_si_unit(f, unit_type="PLANEANGLEUNIT")
+        api.unit.assign_unit(f, units=[length, area, volume, angle])
+        model_ctx = api.context.add_context(f, context_type="Model")
+        self.body = api.context.add_context(f, context_type="Model", context_identifier="Body",
+                                            target_view="MODEL_VIEW", parent=model_ctx)
+        self.axis = api.context.add_context(f, context_type="Model", context_identifier="Axis",
+                                            target_view="GRAPH_VIEW", parent=model_ctx)
+        self.footprint = api.context.add_context(f, context_type="Model", context_identifier="FootPrint",
+                                                 target_view="SKETCH_VIEW", parent=model_ctx)
+        self._provenance(project)
+
+        site = api.root.create_entity(f, ifc_class="IfcSite", name="Site")
+        sm = self.site_matrix
+        site.ObjectPlacement = f.createIfcLocalPlacement(None, self._axis2(sm[:3, 3], sm[:3, 2], sm[:3, 0]))
+        self.origin[site.id()] = np.zeros(3)
+        api.aggregate.assign_object(f, products=[site], relating_object=project)
+        building = api.root.create_entity(f, ifc_class="IfcBuilding", name=m.name or "Building")
+        self._placement(building, site, np.zeros(3))
+        api.aggregate.assign_object(f, products=[building], relating_object=site)
+        self.site, self.building = site, building
+
+        self.storeys = []
+        storeys = list(m.storeys)
+        for i, st in enumerate(storeys):
+            e = api.root.create_entity(f, ifc_class="IfcBuildingStorey", name=st.name or f"Storey {i}")
+            e.Elevation = float(st.elevation if st.elevation is not None else self.storey_z[i])
+            e.CompositionType = "ELEMENT"
+            self._placement(e, building, (0.0, 0.0, self.storey_z[i]))
+            self._pset(e, PSET_STOREY, {"Index": int(st.index), "FloorZ": float(st.floor_z),
+                                        "CeilingZ": float(st.ceiling_z)})
+            self.storeys.append(e)
+        if self.storeys:
+            api.aggregate.assign_object(f, products=self.storeys, relating_object=building)
+        p(0.1, "spaces")
+        self._spaces()
+        p.check()
+        p(0.35, "walls and slabs")
+        self._elements()
+        p.check()
+        p(0.6, "doors")
+        self._doors()
+        for sid, products in self.contained.items():
+            api.spatial.assign_container(f, products=products, relating_structure=f.by_id(sid))
+        p.check()
+        p(0.7, "space boundaries")
+        self._boundaries()
+        p(1.0, "IFC built")
+        return f
+
+    def _provenance(self, project):
+        pv = self.model.provenance
+        self._pset(project, PSET_PROVENANCE, {
+            "Method": pv.method or None,
+            "Seed": None if pv.seed is None else int(pv.seed),
+            "Parameters": dumps(pv.parameters),
+            "Timings": dumps(pv.timings),
+            "Trace": dumps(pv.trace) if pv.trace else None,
+            "Source": pv.source or None,
+            "Software": pv.software or None,
+            "ModelName": self.model.name or None,
+            "Transform": dumps(np.asarray(self.model.transform)),
+            "Offset": dumps(np.asarray(self.model.offset)),
+            "StoreyCount": len(self.model.storeys),
+        })
+
+    def _container_of(self, s: Shape):
+        if 0 <= s.storey < len(self.storeys):
+            return self.storeys[s.storey]
+        return self.building
+
+    def _shape_psets(self, e, s: Shape):
+        self._pset(e, PSET_SHAPE, {
+            "ShapeId": s.id, "ShapeType": s.type.value, "Active": bool(s.active),
+            "Terminal": bool(s.terminal), "StoreyIndex": int(s.storey),
+            "Grid": None if s.grid is None else dumps(s.grid),
+            "Attributes": dumps(s.attributes) if s.attributes else None,
+            "Log": "\n".join(s.log) if s.log else None,
+        })
+        if s.support:
+            self._pset(e, PSET_SUPPORT, {k: float(v) for k, v in s.support.items()})
+
+    @staticmethod
+    def _origin_of(g: Polyhedron):
+        b = g.bounds
+        return np.array([(b[0, 0] + b[1, 0]) / 2, (b[0, 1] + b[1, 1]) / 2, b[0, 2]])
+
+    # ------------------------------------------------------------------ spaces
+    def _spaces(self):
+        api, f, m = self.api, self.f, self.model
+        spaces = [s for s in m.shapes if s.type in (ShapeType.INTERIOR, ShapeType.EXTERIOR)]
+        # parents before their parts
+        order = {s.id: 0 for s in spaces}
+        for s in spaces:
+            d, q = 0, s
+            while q.parent is not None and q.parent in m and m[q.parent].is_space and d < len(spaces):
+                d, q = d + 1, m[q.parent]
+            order[s.id] = d
+        spaces.sort(key=lambda s: order[s.id])
+        agg = {}
+        for s in spaces:
+            g = self.geom[s.id]
+            if s.type == ShapeType.INTERIOR:
+                e = api.root.create_entity(f, ifc_class="IfcSpace", predefined_type="SPACE", name=s.name or s.id)
+                e.LongName = s.name or None
+                e.CompositionType = "ELEMENT" if s.active else "PARTIAL"
+            else:
+                e = api.root.create_entity(f, ifc_class="IfcExternalSpatialElement", predefined_type="EXTERNAL",
+                                           name=s.name or s.id)
+            parent = self.ent.get(s.parent) if s.parent is not None else None
+            if parent is None or not parent.is_a("IfcSpace"):
+                parent = self._container_of(s)
+            origin = self._origin_of(g)
+            self._placement(e, parent, origin)
+            extra = []
+            fp = g.footprint()
+            if fp is not None:
+                ring = _clean_ring(fp - origin[:2])
+                if ring is not None:
+                    curves = f.createIfcGeometricCurveSet([self._polyline(ring)])
+                    extra.append(f.createIfcShapeRepresentation(self.footprint, "FootPrint", "GeometricCurveSet",
+                                                                [curves]))
+            self._body(e, g, s.type, origin, extra)
+            agg.setdefault(parent.id(), []).append(e)
+            self.ent[s.id] = e
+            self._shape_psets(e, s)
+            if s.type == ShapeType.INTERIOR:
+                zmin, zmax = g.bounds[:, 2]
+                fa, per = _footprint_area_perimeter(g)
+                vol = g.volume()
+                self._qto(e, "Qto_SpaceBaseQuantities", {
+                    "Height": zmax - zmin, "GrossFloorArea": fa, "NetFloorArea": fa, "GrossPerimeter": per,
+                    "GrossVolume": vol, "NetVolume": vol})
+        for pid, products in agg.items():
+            api.aggregate.assign_object(f, products=products, relating_object=f.by_id(pid))
+
+    # ------------------------------------------------------------------ walls, slabs
+    def _elements(self):
+        api, f, m = self.api, self.f, self.model
+        doors_of = {}
+        for d in m.shapes:
+            if d.type == ShapeType.DOOR and d.parent is not None:
+                doors_of.setdefault(d.parent, []).append(d)
+        for s in m.shapes:
+            if s.type not in (ShapeType.WALL, ShapeType.SLAB):
+                continue
+            g = self.geom[s.id]
+            if s.type == ShapeType.WALL:
+                e = api.root.create_entity(f, ifc_class="IfcWall", predefined_type="SOLIDWALL", name=s.name or s.id)
+            else:
+                e = api.root.create_entity(f, ifc_class="IfcSlab", predefined_type=self._slab_type(s, g),
+                                           name=s.name or s.id)
+            container = self._container_of(s)
+            origin = self._origin_of(g)
+            self._placement(e, container, origin)
+            extra = []
+            if s.type == ShapeType.WALL:
+                axis = _wall_axis(s, g)
+                if axis is not None:
+                    a = axis - origin[:2]
+                    extra.append(f.createIfcShapeRepresentation(self.axis, "Axis", "Curve2D",
+                                                                [self._polyline(a, closed=False)]))
+            self._body(e, g, s.type, origin, extra)
+            self.contained.setdefault(container.id(), []).append(e)
+            self.ent[s.id] = e
+            self._shape_psets(e, s)
+            zmin, zmax = g.bounds[:, 2]
+            vol = g.volume()
+            if s.type == ShapeType.WALL:
+                size = np.sort(s.scope.size[:2])
+                thick = float(s.attributes.get("thickness", size[0]))
+                length, height = float(size[1]), float(zmax - zmin)
+                holes = [d for d in doors_of.get(s.id, [])]
+                hole_area = sum(_door_wh(d)[0] * _door_wh(d)[1] for d in holes)
+                self._qto(e, "Qto_WallBaseQuantities", {
+                    "Length": length, "Width": thick, "Height": height, "GrossSideArea": length * height,
+                    "NetSideArea": max(length * height - hole_area, 0.0), "GrossVolume": vol,
+                    "NetVolume": max(vol - hole_area * thick, 0.0)})
+            else:
+                fa, per = _footprint_area_perimeter(g)
+                self._qto(e, "Qto_SlabBaseQuantities", {
+                    "Width": zmax - zmin, "GrossArea": fa, "NetArea": fa, "Perimeter": per,
+                    "GrossVolume": vol, "NetVolume": vol})
+
+    def _slab_type(self, s: Shape, g: Polyhedron) -> str:
+        kind = str(s.attributes.get("kind", s.attributes.get("role", ""))).lower()
+        if kind in ("roof",):
+            return "ROOF"
+        if kind in ("base", "baseslab", "ground"):
+            return "BASESLAB"
+        if not self.model.storeys:
+            return "FLOOR"
+        zmin, zmax = g.bounds[:, 2]
+        lowest = min(st.floor_z for st in self.model.storeys)
+        highest = max(st.ceiling_z for st in self.model.storeys)
+        if kind != "ceiling" and zmax <= lowest + self.params.boundary_gap:
+            return "BASESLAB"
+        if kind != "floor" and zmin >= highest - self.params.boundary_gap:
+            return "ROOF"
+        return "FLOOR"
+
+    # ------------------------------------------------------------------ doors
+    def _doors(self):
+        api, f, m = self.api, self.f, self.model
+        for d in m.shapes:
+            if d.type != ShapeType.DOOR:
+                continue
+            g = self.geom[d.id]
+            e = api.root.create_entity(f, ifc_class="IfcDoor", predefined_type="DOOR", name=d.name or d.id)
+            w, h = _door_wh(d)
+            e.OverallWidth, e.OverallHeight = float(w), float(h)
+            container = self._container_of(d)
+            origin = self._origin_of(g)
+            self._placement(e, container, origin)
+            self._body(e, g, ShapeType.DOOR, origin)
+            self.contained.setdefault(container.id(), []).append(e)
+            self.ent[d.id] = e
+            self._shape_psets(e, d)
+            self._qto(e, "Qto_DoorBaseQuantities", {"Width": w, "Height": h, "Area": w * h})
+            wall = self.ent.get(d.parent) if d.parent is not None else None
+            if wall is None or not wall.is_a("IfcWall"):
+                log.warning("door %s has no wall to void; written without an opening", d.id)
+                continue
+            op = api.root.create_entity(f, ifc_class="IfcOpeningElement", predefined_type="OPENING",
+                                        name=f"Opening {d.name or d.id}")
+            og = _opening_geometry(d, self.geom[d.id], self.geom[d.parent], self.params.opening_margin)
+            self._placement(op, wall, origin)
+            item, rtype = self._solid(og, origin)
+            op.Representation = f.createIfcProductDefinitionShape(
+                None, None, [f.createIfcShapeRepresentation(self.body, "Body", rtype, [item])])
+            api.feature.add_feature(f, feature=op, element=wall)
+            api.feature.add_filling(f, opening=op, element=e)
+
+    # ------------------------------------------------------------------ boundaries
+    def _boundaries(self):
+        api, f, m, prm = self.api, self.f, self.model, self.params
+        done = set()
+        n = 0
+        for r in m.relations:
+            if r.a not in self.ent or r.b not in self.ent:
+                continue
+            sa, sb = self.ent[r.a], self.ent[r.b]
+            if not (_is_space_entity(sa) and _is_space_entity(sb)):
+                continue
+            ext = m[r.a].type == ShapeType.EXTERIOR or m[r.b].type == ShapeType.EXTERIOR
+            io = "EXTERNAL" if ext else "INTERNAL"
+            if r.via is not None and r.via in self.ent and not _is_space_entity(self.ent[r.via]):
+                elem, elem_shape, phys = self.ent[r.via], r.via, "PHYSICAL"
+            else:
+                key = ("virtual", r.a, r.b)
+                if key not in self.ent:
+                    ve = api.root.create_entity(f, ifc_class="IfcVirtualElement",
+                                                name=f"Open boundary {m[r.a].name or r.a} | {m[r.b].name or r.b}")
+                    container = self._container_of(m[r.a])
+                    self._placement(ve, container, self.origin[sa.id()])
+                    api.spatial.assign_container(f, products=[ve], relating_structure=container)
+                    self._pset(ve, PSET_SHAPE, {"ShapeId": f"open:{r.a}|{r.b}", "ShapeType": "virtual",
+                                                "RelationKinds": r.kind})
+                    self.ent[key] = ve
+                else:
+                    ps = _find_pset(self.ent[key], PSET_SHAPE)
+                    if ps is not None:
+                        kinds = sorted(set(ps.get("RelationKinds", "").split(",")) | {r.kind})
+                        self._pset_update(self.ent[key], PSET_SHAPE, {"RelationKinds": ",".join(k for k in kinds if k)})
+                elem, elem_shape, phys = self.ent[key], None, "VIRTUAL"
+            if (r.a, r.b, elem.id()) in done:
+                continue
+            done.add((r.a, r.b, elem.id()))
+            ba = self._boundary(r.a, sa, elem, elem_shape, phys, io, "2a")
+            bb = self._boundary(r.b, sb, elem, elem_shape, phys, io, "2a")
+            ba.CorrespondingBoundary, bb.CorrespondingBoundary = bb, ba
+            done.add((r.a, elem.id()))
+            done.add((r.b, elem.id()))
+            n += 2
+        if prm.geometric_boundaries:
+            spaces = [s for s in m.shapes if s.is_space and s.active and s.id in self.ent]
+            elems = [s for s in m.shapes if s.type in (ShapeType.WALL, ShapeType.SLAB) and s.id in self.ent]
+            for s in spaces:
+                for w in elems:
+                    if (s.id, self.ent[w.id].id()) in done:
+                        continue
+                    common = _common_face(self.geom[s.id], self.geom[w.id], prm)
+                    if common is None:
+                        continue
+                    io = "EXTERNAL" if s.type == ShapeType.EXTERIOR else "NOTDEFINED"
+                    self._boundary(s.id, self.ent[s.id], self.ent[w.id], w.id, "PHYSICAL", io, "2b", common)
+                    done.add((s.id, self.ent[w.id].id()))
+                    n += 1
+        log.debug("%d space boundaries", n)
+
+    def _pset_update(self, product, name, props):
+        for rel in getattr(product, "IsDefinedBy", ()) or ():
+            pd = rel.RelatingPropertyDefinition
+            if rel.is_a("IfcRelDefinesByProperties") and pd.is_a("IfcPropertySet") and pd.Name == name:
+                self.api.pset.edit_pset(self.f, pset=pd, properties=props)
+                return
+
+    def _boundary(self, space_id, space, elem, elem_shape, phys, io, level, common=None):
+        f = self.f
+        b = self.api.root.create_entity(f, ifc_class="IfcRelSpaceBoundary2ndLevel")
+        b.Name, b.Description = "2ndLevel", level
+        self.api.boundary.edit_attributes(f, entity=b, relating_space=space, related_building_element=elem,
+                                          physical_or_virtual=phys, internal_or_external=io)
+        if common is None and elem_shape is not None:
+            common = _common_face(self.geom[space_id], self.geom[elem_shape], self.params)
+        if common is not None:
+            poly2, origin, normal, u = common
+            loc = origin - self.origin[space.id()]
+            self.api.boundary.assign_connection_geometry(
+                f, rel_space_boundary=b, outer_boundary=poly2, location=loc, axis=normal, ref_direction=u,
+                unit_scale=1.0)
+        return b
+
+
+# --------------------------------------------------------------------------- geometry helpers
+def _is_space_entity(e) -> bool:
+    return e.is_a("IfcSpace") or e.is_a("IfcExternalSpatialElement")
+
+
+def _find_pset(product, name):
+    import ifcopenshell.util.element as ue
+
+    return ue.get_psets(product).get(name)
+
+
+def _clean_ring(ring: np.ndarray, tol: float = 1e-9) -> Optional[np.ndarray]:
+    """Drop repeated consecutive vertices of a closed ring; None when fewer than 3 remain."""
+    r = np.asarray(ring, dtype=np.float64)
+    keep = np.linalg.norm(r - np.roll(r, 1, axis=0), axis=1) > tol
+    r = r[keep]
+    return r if len(r) >= 3 else None
+
+
+def _footprint_area_perimeter(g: Polyhedron) -> tuple[float, float]:
+    """Area (m²) and perimeter (m) of the horizontal projection of ``g``."""
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    fp = g.footprint()
+    if fp is not None:
+        poly = Polygon(fp)
+    else:
+        v, t = g.triangles()
+        tris = [Polygon(v[i, :2]) for i in t]
+        poly = unary_union([p for p in tris if p.area > 0])
+    return float(poly.area), float(poly.length)
+
+
+def _door_wh(d: Shape) -> tuple[float, float]:
+    b = d.geometry.bounds
+    w = float(d.attributes.get("width", np.sort(d.scope.size[:2])[1]))
+    h = float(d.attributes.get("height", b[1, 2] - b[0, 2]))
+    return w, h
+
+
+def _wall_axis(s: Shape, g: Polyhedron) -> Optional[np.ndarray]:
+    """(2, 2) float64 — the wall's centre line (metres) along its longer horizontal side."""
+    sc = s.scope
+    if sc.size[0] <= 0:
+        return None
+    x, y = sc.axes[0, :2], sc.axes[1, :2]
+    o = sc.origin[:2] + y * sc.size[1] / 2
+    return np.array([o, o + x * sc.size[0]])
+
+
+def _opening_geometry(door: Shape, g: Polyhedron, wall_g: Polyhedron, margin: float) -> Polyhedron:
+    """The door's box enlarged by ``margin`` beyond each side of the wall (metres)."""
+    sc = door.scope
+    ax = sc.axes
+    # the horizontal scope axis closest to the wall's thin direction
+    wsc = Shape("_w", ShapeType.WALL, wall_g).scope
+    thin = wsc.axes[int(np.argmin(wsc.size[:2]))]
+    k = int(np.argmax([abs(ax[0] @ thin), abs(ax[1] @ thin)]))
+    lo = np.zeros(3)
+    size = np.array(sc.size, dtype=np.float64)
+    # reach through the whole wall thickness plus the margin
+    wall_thick = float(np.min(wsc.size[:2]))
+    centre_k = (sc.center - wsc.center) @ ax[k]
+    half = max(size[k] / 2, wall_thick / 2 + abs(centre_k)) + margin
+    lo[k] = size[k] / 2 - half
+    size[k] = 2 * half
+    corners2 = []
+    base = sc.origin + ax.T @ lo
+    for a, b in ((0, 0), (1, 0), (1, 1), (0, 1)):
+        corners2.append(base[:2] + ax[0, :2] * size[0] * a + ax[1, :2] * size[1] * b)
+    zmin, zmax = g.bounds[:, 2]
+    return Polyhedron.prism(np.array(corners2), zmin, zmax)
+
+
+def _plane_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit in-plane axes (u, w) of a plane with unit normal ``n`` (u horizontal when possible)."""
+    u = np.array([-n[1], n[0], 0.0])
+    if np.linalg.norm(u) < 1e-6:
+        u = np.array([1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(n, u)
+    return u, w / np.linalg.norm(w)
+
+
+def _common_face(space_g: Polyhedron, elem_g: Polyhedron, prm: IfcWriteParams):
+    """The largest common region of an outward space face and an anti-parallel element face.
+
+    Returns ``(polygon (k, 2) float64 in the plane frame, origin (3,), normal (3,), u (3,))``
+    — the normal is the space face's outward normal — or None when the shapes do not touch.
+    """
+    from shapely.geometry import Polygon
+
+    sb, eb = space_g.bounds, elem_g.bounds
+    if np.any(sb[0] > eb[1] + prm.boundary_gap) or np.any(eb[0] > sb[1] + prm.boundary_gap):
+        return None
+    best = None
+    enorm = [elem_g.face_normal(j) for j in range(len(elem_g.faces))]
+    for i in range(len(space_g.faces)):
+        n = space_g.face_normal(i)
+        if not np.any(n):
+            continue
+        vs = space_g.face_vertices(i)
+        d = float(n @ vs[0])
+        u, w = _plane_basis(n)
+        ps = None
+        for j, m in enumerate(enorm):
+            if -(n @ m) < prm.boundary_cos:
+                continue
+            ve = elem_g.face_vertices(j)
+            if abs(float(n @ ve[0]) - d) > prm.boundary_gap:
+                continue
+            if ps is None:
+                ps = Polygon(np.column_stack([(vs - vs[0]) @ u, (vs - vs[0]) @ w])).buffer(0)
+            pe = Polygon(np.column_stack([(ve - vs[0]) @ u, (ve - vs[0]) @ w])).buffer(0)
+            inter = ps.intersection(pe)
+            if inter.is_empty:
+                continue
+            parts = getattr(inter, "geoms", [inter])
+            for part in parts:
+                if part.geom_type != "Polygon" or part.area < prm.min_boundary_area:
+                    continue
+                if best is None or part.area > best[0]:
+                    ring = np.asarray(part.exterior.coords)[:-1]
+                    best = (part.area, ring, vs[0].copy(), n, u)
+    if best is None:
+        return None
+    return best[1], best[2], best[3], best[4]
