@@ -11,9 +11,10 @@ Every reader
 * drops rows with non-finite coordinates and counts them in ``cloud.dropped_nonfinite``
   (:class:`~engine.errors.EmptyCloudError` when nothing, or fewer than
   :data:`~engine.pointcloud.MIN_POINTS` points, is left);
-* removes a large global offset (any |coordinate| > ``ReadParams.offset_threshold_m``,
-  1e4 m): the bounding-box centre rounded to ``offset_round_m`` (100 m) is subtracted and
-  recorded in ``cloud.offset``, so float32 in Blender keeps millimetres;
+* removes a large global offset: along each axis where some |coordinate| exceeds
+  ``ReadParams.offset_threshold_m`` (1e4 m) the bounding-box centre rounded to
+  ``offset_round_m`` (100 m) is subtracted; the offset is recorded in ``cloud.offset``, so
+  float32 in Blender keeps millimetres;
 * checks units: a bounding box larger than ``max_indoor_extent_m`` (2 km) that would be a
   plausible building in millimetres logs a warning and sets the attribute
   ``cloud.units_warning`` (a message; absent otherwise). Coordinates are **not** rescaled —

@@ -29,7 +29,8 @@ class ReadParams:
     chunk_points: int = 2_000_000
     """Points read per chunk when streaming a large file (progress is reported per chunk)."""
     offset_threshold_m: float = 1.0e4
-    """When any |coordinate| exceeds this (metres), a global offset is removed."""
+    """Along each axis where some |coordinate| exceeds this (metres), a global offset is
+    removed (the other axes keep their values, e.g. heights above sea level)."""
     offset_round_m: float = 100.0
     """The removed offset is the centre of the bounding box rounded to a multiple of this
     (metres), so it reads well and float32 keeps sub-millimetre precision."""
@@ -180,8 +181,9 @@ def finish_cloud(
     hi = np.array([xyz[:, k].max() for k in range(3)])
     base = np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64).reshape(3)
     extra = np.zeros(3)
-    if max(np.abs(lo).max(), np.abs(hi).max()) > params.offset_threshold_m:
-        extra = _rounded_centre(lo, hi, params.offset_round_m)
+    big = np.maximum(np.abs(lo), np.abs(hi)) > params.offset_threshold_m
+    if big.any():  # only along the axes that need it: heights above sea level stay as they are
+        extra = np.where(big, _rounded_centre(lo, hi, params.offset_round_m), 0.0)
         xyz -= extra
         if scanner_positions is not None:
             scanner_positions = np.asarray(scanner_positions, dtype=np.float64).reshape(-1, 3) - extra
