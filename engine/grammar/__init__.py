@@ -1,0 +1,22 @@
+"""Shape grammars of indoor reconstruction.
+
+* Manhattan grammar (SPEC.md §2): :func:`reconstruct_manhattan` (scan → model) and
+  :func:`reconstruct_grammar` (the grammar core on an aligned cloud).
+* Shared rule code for every grammar (also the generic/rjMCMC one): the point-on-face
+  index (:mod:`.ipof`), the rules classify / adjacency / connectivity / merge /
+  containment (:mod:`.rules`), unions and shared faces (:mod:`.geometry`).
+"""
+from .geometry import SharedFace, box_of, shared_faces, union_of_boxes
+from .ipof import face_index, grid_face_index
+from .manhattan import align_fallback, place_storey, reconstruct_grammar, reconstruct_manhattan
+from .params import ManhattanParams, estimate_noise, estimate_spacing, params_from_data
+from .rules import (DEFAULT_TAU, classify, derive_topology, is_part, merge, part_relations,
+                    space_relations, wall_with_openings)
+
+__all__ = [
+    "reconstruct_manhattan", "reconstruct_grammar", "place_storey", "align_fallback",
+    "ManhattanParams", "params_from_data", "estimate_spacing", "estimate_noise",
+    "face_index", "grid_face_index", "union_of_boxes", "shared_faces", "SharedFace", "box_of",
+    "classify", "part_relations", "merge", "space_relations", "derive_topology", "is_part",
+    "wall_with_openings", "DEFAULT_TAU",
+]

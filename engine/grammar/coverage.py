@@ -1,0 +1,432 @@
+"""Alpha-shape coverage of cells, computed once per cell complex (SPEC.md §3.3).
+
+The rjMCMC likelihood needs, for every candidate interior space (a union of cells), the
+area of its ceiling covered by points, the covered area of its side faces and the area of
+points lying *inside* it. All three are additive over cells and faces, so they are measured
+once per cell and per face here and summed by the search (:mod:`.rjmcmc`):
+
+* ``top[c]`` — area of the **alpha shape** of the ceiling points (horizontal points in the
+  upper half of the storey), projected on x, y, clipped to cell ``c``'s footprint. The alpha
+  shape of the whole storey is built once (Delaunay of the thinned points, triangles with
+  circumradius < r_α, unioned), so a thin sliver cell inside a room is measured as covered;
+  no per-cell Delaunay edge effects.
+* ``face[f]`` — alpha-shape area of the wall points within the shape buffer δ of face ``f``
+  (a vertical rectangle over a footprint edge), projected onto the face in (t, z), clipped
+  to the face.
+* ``inside[c]`` — area of wall and floor/ceiling points strictly inside cell ``c`` (farther
+  than δ from its sides, floor and ceiling), measured as occupied voxels × voxel².
+  (Departure: these points lie on no known plane, so an alpha shape has no natural plane
+  to be drawn on; the voxel count is the area estimate the point-on-face index uses too.)
+
+A face shared by two cells of one space is internal to it: its wall coverage then counts
+as points inside the space (see :meth:`CellCoverage.space_terms`).
+
+The adapter the search works on is :class:`CellSet`: cells as 2-D shapely polygons with a
+z range, and faces (a footprint segment between two cells, or between a cell and the
+outside, ``b = -1``).
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+__all__ = ["alpha_triangles", "alpha_area", "alpha_geometry", "thin_points", "Face", "CellSet",
+           "CellCoverage", "measure_coverage", "cellset_from_polygons"]
+
+log = logging.getLogger(__name__)
+
+
+# --------------------------------------------------------------------------- alpha shapes
+def thin_points(pts: np.ndarray, cell: float) -> np.ndarray:
+    """Keep one point per grid cell (the first met).
+
+    Parameters
+    ----------
+    pts : (n, d) float64 — metres.
+    cell : grid size, metres (<= 0: no thinning).
+
+    Returns
+    -------
+    (m, d) float64, m <= n. Empty in, empty out.
+    """
+    pts = np.asarray(pts, dtype=np.float64)
+    if cell <= 0 or len(pts) == 0:
+        return pts
+    keys = np.floor(pts / cell).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return pts[np.sort(first)]
+
+
+def alpha_triangles(xy: np.ndarray, r_alpha: float) -> np.ndarray:
+    """Triangles of the 2-D alpha shape: Delaunay triangles with circumradius < ``r_alpha``.
+
+    Parameters
+    ----------
+    xy : (n, 2) float64 — metres.
+    r_alpha : float — metres.
+
+    Returns
+    -------
+    (m, 3, 2) float64 — triangle corners, metres. Empty (0, 3, 2) for fewer than three
+    points or collinear points.
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    empty = np.zeros((0, 3, 2))
+    if len(xy) < 3:
+        return empty
+    from scipy.spatial import Delaunay, QhullError
+
+    try:
+        tri = Delaunay(xy)
+    except (QhullError, ValueError):
+        return empty
+    t = xy[tri.simplices]
+    a = np.linalg.norm(t[:, 1] - t[:, 2], axis=1)
+    b = np.linalg.norm(t[:, 0] - t[:, 2], axis=1)
+    c = np.linalg.norm(t[:, 0] - t[:, 1], axis=1)
+    area2 = np.abs((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1])
+                   - (t[:, 1, 1] - t[:, 0, 1]) * (t[:, 2, 0] - t[:, 0, 0]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = a * b * c / (2.0 * area2)
+    keep = np.isfinite(r) & (r < r_alpha)
+    return t[keep]
+
+
+def alpha_area(xy: np.ndarray, r_alpha: float, clip: Optional[tuple] = None) -> float:
+    """Area of the 2-D alpha shape of ``xy`` (m²).
+
+    ``clip`` : optional ``(lo (2,), hi (2,))`` box; triangles are clipped to it (exactly,
+    with shapely) when some corner lies outside. Fewer than three points: 0.
+    """
+    t = alpha_triangles(xy, r_alpha)
+    if len(t) == 0:
+        return 0.0
+    if clip is not None:
+        lo, hi = np.asarray(clip[0], float), np.asarray(clip[1], float)
+        outside = np.any((t < lo - 1e-12) | (t > hi + 1e-12), axis=(1, 2))
+        inner = t[~outside]
+        total = float(np.sum(_tri_area(inner)))
+        if outside.any():
+            import shapely
+
+            box = shapely.box(lo[0], lo[1], hi[0], hi[1])
+            polys = shapely.polygons(t[outside])
+            total += float(np.sum(shapely.area(shapely.intersection(polys, box))))
+        return total
+    return float(np.sum(_tri_area(t)))
+
+
+def _tri_area(t: np.ndarray) -> np.ndarray:
+    return 0.5 * np.abs((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1])
+                        - (t[:, 1, 1] - t[:, 0, 1]) * (t[:, 2, 0] - t[:, 0, 0]))
+
+
+def alpha_geometry(xy: np.ndarray, r_alpha: float):
+    """The alpha shape of ``xy`` as one shapely (Multi)Polygon (union of its triangles).
+
+    ``xy`` : (n, 2) float64 metres. No triangle: an empty GeometryCollection.
+    """
+    import shapely
+
+    t = alpha_triangles(xy, r_alpha)
+    if len(t) == 0:
+        return shapely.GeometryCollection()
+    polys = shapely.polygons(t)
+    try:  # Delaunay triangles form a valid coverage: fast path
+        return shapely.coverage_union_all(polys)
+    except Exception:  # pragma: no cover - older GEOS
+        return shapely.union_all(polys)
+
+
+# --------------------------------------------------------------------------- adapter
+@dataclass(frozen=True, eq=False)
+class Face:
+    """A vertical face of the cell complex over a footprint edge.
+
+    Attributes
+    ----------
+    a, b : int
+        The cells on either side; ``b = -1`` on the boundary of the complex.
+    segments : (k, 2, 2) float64
+        The footprint segment(s) the face stands on (x, y metres); usually one.
+    """
+
+    a: int
+    b: int
+    segments: np.ndarray
+
+    @property
+    def length(self) -> float:
+        return float(np.sum(np.linalg.norm(self.segments[:, 1] - self.segments[:, 0], axis=1)))
+
+
+@dataclass(frozen=True, eq=False)
+class CellSet:
+    """The cell complex of one storey as the rjMCMC search sees it (the adapter interface).
+
+    Attributes
+    ----------
+    polygons : tuple of shapely Polygon
+        2-D footprints of the cells, metres (x, y).
+    z_range : (n, 2) float64
+        Bottom and top z of every cell, metres.
+    faces : tuple of Face
+        Every footprint edge between two cells (shared edge longer than a minimum) and
+        between a cell and the outside.
+    """
+
+    polygons: tuple
+    z_range: np.ndarray
+    faces: tuple
+
+    def __len__(self) -> int:
+        return len(self.polygons)
+
+    @property
+    def areas(self) -> np.ndarray:
+        """(n,) float64 — footprint areas, m²."""
+        return np.array([p.area for p in self.polygons])
+
+    def neighbours(self) -> list[list[tuple[int, int]]]:
+        """For each cell, its ``(other cell, face index)`` pairs (boundary faces excluded)."""
+        out = [[] for _ in self.polygons]
+        for fi, f in enumerate(self.faces):
+            if f.b >= 0:
+                out[f.a].append((f.b, fi))
+                out[f.b].append((f.a, fi))
+        return out
+
+    def cell_faces(self) -> list[list[int]]:
+        """For each cell, the indices of all its faces (boundary ones included)."""
+        out = [[] for _ in self.polygons]
+        for fi, f in enumerate(self.faces):
+            out[f.a].append(fi)
+            if f.b >= 0:
+                out[f.b].append(fi)
+        return out
+
+
+def _segments(geom) -> list[np.ndarray]:
+    """(2, 2) segments of a (multi)line geometry."""
+    import shapely
+
+    out = []
+    if geom.is_empty:
+        return out
+    for part in getattr(geom, "geoms", [geom]):
+        if part.geom_type in ("LineString", "LinearRing"):
+            c = np.asarray(part.coords)[:, :2]
+            for i in range(len(c) - 1):
+                if np.linalg.norm(c[i + 1] - c[i]) > 0:
+                    out.append(c[i:i + 2].copy())
+        elif part.geom_type in ("MultiLineString", "GeometryCollection"):
+            out.extend(_segments(part))
+        elif part.geom_type == "Polygon":
+            out.extend(_segments(shapely.boundary(part)))
+    return out
+
+
+def cellset_from_polygons(polygons: Sequence, z_range, min_face_length: float = 0.02) -> CellSet:
+    """Build the adapter from 2-D cell footprints (a partition: no overlaps).
+
+    Parameters
+    ----------
+    polygons : sequence of shapely Polygon — x, y metres.
+    z_range : (n, 2) float64 or (2,) float64 for every cell — metres.
+    min_face_length : shared edges shorter than this make no face, metres.
+
+    Returns
+    -------
+    CellSet, with one face per pair of cells sharing an edge and one boundary face per
+    cell whose outline is not fully shared.
+    """
+    import shapely
+
+    polys = tuple(shapely.normalize(p) for p in polygons)
+    n = len(polys)
+    zr = np.asarray(z_range, dtype=np.float64)
+    if zr.ndim == 1:
+        zr = np.tile(zr, (n, 1))
+    tree = shapely.STRtree(polys)
+    bnd = [p.boundary for p in polys]
+    faces, shared = [], [[] for _ in range(n)]
+    grown = shapely.buffer(np.array(polys, dtype=object), 1e-7)
+    pairs = tree.query(grown, predicate="intersects")
+    for i, j in zip(*pairs):
+        if j <= i:
+            continue
+        inter = shapely.intersection(bnd[i], bnd[j])
+        if inter.is_empty or inter.length < min_face_length:
+            continue
+        segs = _segments(shapely.line_merge(inter) if inter.geom_type == "MultiLineString" else inter)
+        if not segs:
+            continue
+        faces.append(Face(int(i), int(j), np.array(segs)))
+        shared[i].append(inter)
+        shared[j].append(inter)
+    for i in range(n):
+        rest = bnd[i]
+        if shared[i]:
+            rest = shapely.difference(rest, shapely.buffer(shapely.union_all(shared[i]), 1e-6, cap_style="flat"))
+        if rest.is_empty or rest.length < min_face_length:
+            continue
+        segs = [s for s in _segments(rest) if np.linalg.norm(s[1] - s[0]) >= 1e-6]
+        if segs:
+            faces.append(Face(int(i), -1, np.array(segs)))
+    return CellSet(polys, zr, tuple(faces))
+
+
+# --------------------------------------------------------------------------- coverage
+@dataclass(frozen=True, eq=False)
+class CellCoverage:
+    """Coverage figures of a :class:`CellSet`, all in m².
+
+    Attributes
+    ----------
+    area : (n,) float64 — footprint (top face) area of every cell.
+    top : (n,) float64 — alpha-shape area of the ceiling points over every cell.
+    inside : (n,) float64 — area of points strictly inside every cell.
+    face : (f,) float64 — alpha-shape area of the wall points on every face.
+    total_horizontal : float — Cov(hpoints): alpha-shape area of all ceiling points.
+    total_vertical : float — Cov(vpoints): the wall coverage of all faces together.
+    ceiling_z, floor_z : (n,) float64 — median z of the ceiling / floor points over every
+        cell (NaN where none), metres.
+    """
+
+    area: np.ndarray
+    top: np.ndarray
+    inside: np.ndarray
+    face: np.ndarray
+    total_horizontal: float
+    total_vertical: float
+    ceiling_z: np.ndarray
+    floor_z: np.ndarray
+
+
+def _points_in_cells(polys, xy: np.ndarray) -> np.ndarray:
+    """(m,) int64 index of the cell holding each point (-1: none)."""
+    import shapely
+
+    out = np.full(len(xy), -1, dtype=np.int64)
+    if len(xy) == 0 or not polys:
+        return out
+    tree = shapely.STRtree(polys)
+    pts = shapely.points(xy)
+    ip, ic = tree.query(pts, predicate="intersects")
+    out[ip] = ic  # a point on a shared edge goes to either cell
+    return out
+
+
+def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.ndarray, *,
+                     shape_buffer: float, r_alpha: float, thin: float,
+                     should_check=None) -> CellCoverage:
+    """Measure the per-cell and per-face coverage once (see the module doc).
+
+    Parameters
+    ----------
+    cells : CellSet
+    xyz_wall : (n, 3) float64 — wall ("vertical") points, metres.
+    xyz_horizontal : (m, 3) float64 — floor/ceiling points, metres.
+    shape_buffer : δ, metres: points within δ of a face belong to it.
+    r_alpha : circumradius bound of the alpha shapes, metres.
+    thin : points are thinned to one per cell of this grid (metres) before measuring; also
+        the voxel of the inside-area estimate.
+    should_check : optional callable polled between faces (cancellation).
+
+    Returns
+    -------
+    CellCoverage
+    """
+    import shapely
+    from scipy.spatial import cKDTree
+
+    n = len(cells)
+    area = cells.areas
+    zr = cells.z_range
+    zmid = zr.mean(axis=1)
+    hw = np.asarray(xyz_horizontal, dtype=np.float64).reshape(-1, 3)
+    vw = np.asarray(xyz_wall, dtype=np.float64).reshape(-1, 3)
+    hw = thin_points(hw, thin)
+    vw = thin_points(vw, thin)
+
+    # --- ceilings and floors: which cell holds each horizontal point
+    hc = _points_in_cells(cells.polygons, hw[:, :2])
+    ok = hc >= 0
+    upper = np.zeros(len(hw), bool)
+    upper[ok] = hw[ok, 2] > zmid[hc[ok]]
+    ceil_pts = hw[upper]
+    geom = alpha_geometry(thin_points(ceil_pts[:, :2], thin), r_alpha)
+    total_h = float(geom.area)
+    if geom.is_empty:
+        top = np.zeros(n)
+    else:
+        shapely.prepare(geom)
+        top = shapely.area(shapely.intersection(geom, np.array(cells.polygons, dtype=object)))
+    ceiling_z = np.full(n, np.nan)
+    floor_z = np.full(n, np.nan)
+    lower = ok & ~upper
+    for arr, mask in ((ceiling_z, upper), (floor_z, lower)):
+        idx = hc[mask]
+        z = hw[mask, 2]
+        if len(idx):
+            order = np.argsort(idx, kind="stable")
+            idx, z = idx[order], z[order]
+            cuts = np.flatnonzero(np.diff(idx)) + 1
+            for grp_i, grp_z in zip(np.split(idx, cuts), np.split(z, cuts)):
+                arr[grp_i[0]] = float(np.median(grp_z))
+
+    # --- faces: wall points within δ of the face's footprint segment
+    face = np.zeros(len(cells.faces))
+    tree = cKDTree(vw[:, :2]) if len(vw) else None
+    for fi, f in enumerate(cells.faces):
+        if should_check is not None and fi % 64 == 0:
+            should_check()
+        if tree is None:
+            break
+        z0 = zr[f.a, 0] if f.b < 0 else min(zr[f.a, 0], zr[f.b, 0])
+        z1 = zr[f.a, 1] if f.b < 0 else max(zr[f.a, 1], zr[f.b, 1])
+        tot = 0.0
+        for p, q in f.segments:
+            d = q - p
+            L = float(np.linalg.norm(d))
+            if L <= 0:
+                continue
+            u = d / L
+            cand = tree.query_ball_point((p + q) / 2, L / 2 + shape_buffer)
+            if not cand:
+                continue
+            c = vw[cand]
+            rel = c[:, :2] - p
+            t = rel @ u
+            dist = np.abs(rel @ np.array([-u[1], u[0]]))
+            sel = (dist <= shape_buffer) & (t >= 0) & (t <= L) & (c[:, 2] >= z0) & (c[:, 2] <= z1)
+            if sel.sum() < 3:
+                continue
+            tz = np.column_stack([t[sel], c[sel, 2]])
+            tot += alpha_area(tz, r_alpha, clip=((0.0, z0), (L, z1)))
+        face[fi] = tot
+    total_v = float(face.sum())
+
+    # --- points strictly inside cells: voxel-occupancy area
+    inside = np.zeros(n)
+    allp = np.vstack([vw, hw]) if len(vw) + len(hw) else np.zeros((0, 3))
+    if len(allp):
+        shrunk = shapely.buffer(np.array(cells.polygons, dtype=object), -shape_buffer, join_style="mitre")
+        valid = [i for i, s in enumerate(shrunk) if not s.is_empty]
+        if valid:
+            ci = _points_in_cells([shrunk[i] for i in valid], allp[:, :2])
+            m = ci >= 0
+            cell_of = np.full(len(allp), -1, dtype=np.int64)
+            cell_of[m] = np.asarray(valid)[ci[m]]
+            m &= (allp[:, 2] > zr[np.maximum(cell_of, 0), 0] + shape_buffer) & \
+                 (allp[:, 2] < zr[np.maximum(cell_of, 0), 1] - shape_buffer)
+            if m.any():
+                keys = np.floor(allp[m] / thin).astype(np.int64)
+                vox = np.unique(np.column_stack([cell_of[m], keys]), axis=0)
+                inside = np.bincount(vox[:, 0], minlength=n).astype(np.float64) * thin * thin
+    return CellCoverage(area=np.asarray(area, float), top=np.asarray(top, float), inside=inside,
+                        face=face, total_horizontal=total_h, total_vertical=total_v,
+                        ceiling_z=ceiling_z, floor_z=floor_z)

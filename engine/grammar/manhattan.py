@@ -1,0 +1,315 @@
+"""The Manhattan shape grammar (SPEC.md §2; thesis Ch. 3): the procedure.
+
+Production order (thesis Fig. 3.6)::
+
+    (place, adjacency)* → classify* → [manual reclassification] → connectivity*
+      → (merge, containment, adjacency)* → [manual doors] → connectivity*
+
+:func:`reconstruct_grammar` runs it on an aligned cloud (the grammar core, callable
+without any preprocessing); :func:`reconstruct_manhattan` adds normals, Manhattan
+alignment and storeys in front of it and returns a :class:`BuildingModel` in the aligned
+frame with ``model.transform`` mapping back to the input.
+
+Parts are the placed cuboids, ids ``s<storey>_c<i>_<j>_<k>`` with ``grid=(i, j, k)``;
+each stores the point-on-face index of its six faces (``ipof_f0`` … ``ipof_f5``, faces in
+the order bottom, top, −y, +x, +y, −x) and ``ipof_top`` / ``ipof_sides``, and a log of the
+rules that typed it.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from typing import Optional, Sequence
+
+import numpy as np
+
+from ..errors import EmptyCloudError, ReconstructionError
+from ..model import BuildingModel, Provenance, Shape, ShapeType, Storey
+from ..pointcloud import PointCloud
+from ..progress import Progress
+from .geometry import box_of
+from .ipof import grid_face_index
+from .params import ManhattanParams, params_from_data
+from .place import (StoreyFrame, detect_levels, estimate_normals_pca, histogram_peaks, storey_chunks,
+                    storey_frame)
+from .rules import classify, derive_topology
+
+__all__ = ["reconstruct_manhattan", "reconstruct_grammar", "align_fallback", "place_storey"]
+
+log = logging.getLogger(__name__)
+
+
+# --------------------------------------------------------------------------- rule 1: place
+def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, storey: int,
+                 params: ManhattanParams, spacing: float) -> list[Shape]:
+    """Place, compute the point-on-face indices, and classify the cuboids of one storey.
+
+    Parameters
+    ----------
+    xyz : (n, 3) float64 — aligned points, metres, z up.
+    normals : (n, 3) float64 — unit normals (sign free).
+    frame : the storey's floor and ceiling levels.
+    storey : storey index. params : grammar parameters. spacing : σ, metres.
+
+    Returns the classified parts (cuboids), not yet merged.
+    """
+    d = params.shape_buffer
+    cos_t = np.cos(params.normal_angle)
+    zc = frame.cuts
+    inz = (xyz[:, 2] >= zc[0] - d) & (xyz[:, 2] <= zc[-1] + d)
+    p, n = xyz[inz], np.abs(normals[inz])
+    along = [n[:, a] >= cos_t for a in range(3)]
+
+    # place: peaks of x (points facing x) and y (points facing y) → intervals
+    cuts = []
+    for a in (0, 1):
+        o = 1 - a
+        sel = along[a]
+        peaks = histogram_peaks(p[sel, a], np.column_stack([p[sel, o], p[sel, 2]]), params, spacing,
+                                params.min_wall_area)
+        if len(peaks) < 2:
+            raise ReconstructionError(f"storey {storey}: fewer than two wall surfaces facing "
+                                      f"{'xy'[a]} (found {len(peaks)}); is the cloud aligned?")
+        cuts.append(np.array([pk.position for pk in peaks]))
+    X, Y, Z = cuts[0], cuts[1], zc
+    nx, ny, nz = len(X) - 1, len(Y) - 1, len(Z) - 1
+    log.info("storey %d: %d x %d x %d cuboids (x cuts %d, y cuts %d, z cuts %s)",
+             storey, nx, ny, nz, len(X), len(Y), np.round(Z, 3).tolist())
+
+    # point-on-face index of every face of the grid, plane by plane
+    def faces_on(axis, planes, u_edges, v_edges, ucol, vcol):
+        out = []
+        sel = along[axis]
+        t = p[sel, axis]
+        order = np.argsort(t)
+        ts = t[order]
+        uv = np.column_stack([p[sel, ucol], p[sel, vcol]])[order]
+        for w in planes:
+            i0, i1 = np.searchsorted(ts, [w - d, w + d])
+            out.append(grid_face_index(uv[i0:i1], u_edges, v_edges, spacing))
+        return np.array(out)
+
+    FX = faces_on(0, X, Y, Z, 1, 2)  # (nx+1, ny, nz)
+    FY = faces_on(1, Y, X, Z, 0, 2)  # (ny+1, nx, nz)
+    FZ = faces_on(2, Z, X, Y, 0, 1)  # (nz+1, nx, ny)
+
+    # classify, top-down so that "top touches an interior shape" is known
+    t_max = params.max_wall_thickness
+    thin_x = np.diff(X) <= t_max
+    thin_y = np.diff(Y) <= t_max
+    types = np.empty((nx, ny, nz), dtype=object)
+    shapes = {}
+    for k in range(nz - 1, -1, -1):
+        for i in range(nx):
+            for j in range(ny):
+                f = [FZ[k, i, j], FZ[k + 1, i, j], FY[j, i, k], FX[i + 1, j, k], FY[j + 1, i, k], FX[i, j, k]]
+                sx, sy = (f[3] + f[5]) / 2, (f[2] + f[4]) / 2
+                tx, ty = bool(thin_x[i]), bool(thin_y[j])
+                if tx and ty:
+                    sides, thin_axis = max(sx, sy), 2
+                elif tx:
+                    sides, thin_axis = sx, 0
+                elif ty:
+                    sides, thin_axis = sy, 1
+                else:
+                    sides, thin_axis = max(sx, sy), None
+                support = {f"ipof_f{q}": float(v) for q, v in enumerate(f)}
+                support.update(ipof_top=float(f[1]), ipof_bottom=float(f[0]), ipof_sides=float(sides))
+                above = k + 1 < nz and types[i, j, k + 1] == ShapeType.INTERIOR
+                typ, line = classify(support, tx or ty, above, params.tau)
+                types[i, j, k] = typ
+                sid = f"s{storey}_c{i:03d}_{j:03d}_{k:02d}"
+                lo, hi = (X[i], Y[j], Z[k]), (X[i + 1], Y[j + 1], Z[k + 1])
+                shapes[(i, j, k)] = Shape(
+                    id=sid, type=typ, geometry=box_of(lo, hi), storey=storey, grid=(i, j, k),
+                    terminal=typ != ShapeType.INTERIOR, support=support,
+                    attributes={"thin_axis": thin_axis},
+                    log=(f"place: cuboid ({i},{j},{k}) from histogram intervals "
+                         f"x[{X[i]:.3f},{X[i + 1]:.3f}] y[{Y[j]:.3f},{Y[j + 1]:.3f}] z[{Z[k]:.3f},{Z[k + 1]:.3f}]",
+                         line))
+    # wall junctions: a cuboid thin in both directions between walls (its faces are hidden
+    # inside the walls, so its own index cannot be seen) continues them. Extension of
+    # SPEC.md rule 2, documented in the README of this package.
+    for (i, j, k), s in list(shapes.items()):
+        if s.type == ShapeType.WALL or s.attributes["thin_axis"] != 2:
+            continue
+        nb = [(i - 1, j, k), (i + 1, j, k), (i, j - 1, k), (i, j + 1, k)]
+        walls = sum(1 for q in nb if q in shapes and types[q] == ShapeType.WALL)
+        if walls >= 2:
+            types[i, j, k] = ShapeType.WALL
+            shapes[(i, j, k)] = s.logged(f"classify: wall junction, {walls} neighbouring walls -> wall",
+                                         type=ShapeType.WALL, terminal=True)
+    return [shapes[key] for key in sorted(shapes)]
+
+
+# --------------------------------------------------------------------------- the procedure
+def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = None,
+                        storeys: Optional[Sequence] = None, *, progress=None, should_stop=None,
+                        transform=None) -> BuildingModel:
+    """Run the grammar on an **aligned** cloud (walls along x and y, z up).
+
+    Parameters
+    ----------
+    cloud : PointCloud — aligned; normals are estimated when missing.
+    params : grammar parameters; None or missing σ/δ/bin are chosen from the data.
+    storeys : optional storeys (``engine.model.Storey`` or (floor_z, ceiling_z) pairs,
+        metres); None finds them from slabs and floor/ceiling levels.
+    transform : (4, 4) float64 aligned → input frame stored in the model (identity).
+
+    Returns the model: parts, merged spaces, walls, exteriors, relations.
+    """
+    p = Progress.wrap(progress, should_stop)
+    t0 = time.perf_counter()
+    if cloud.n < 10:
+        raise EmptyCloudError("too few points for a reconstruction", cloud.source or None)
+    xyz = cloud.xyz
+    params = _complete_params(xyz, params)
+    spacing = float(params.spacing)
+    normals = cloud.normals.astype(np.float64) if cloud.normals is not None else \
+        estimate_normals_pca(xyz, params.normal_neighbours)
+    timings = {"normals": time.perf_counter() - t0}
+    p(0.2, "levels and storeys")
+    t1 = time.perf_counter()
+    hor = np.abs(normals[:, 2]) >= np.cos(params.normal_angle)
+    frames = []
+    if storeys is None:
+        chunks = storey_chunks(xyz[:, 2], xyz[:, :2], params, spacing)
+    else:
+        # each storey from just below its floor to just below the next floor, so that
+        # ceilings higher than the storey's main ceiling are found too
+        fl = sorted((s.floor_z, s.ceiling_z) if hasattr(s, "floor_z") else (float(s[0]), float(s[1]))
+                    for s in storeys)
+        m = max(3 * params.shape_buffer, 2 * params.bin_size)
+        top = float(xyz[:, 2].max())
+        chunks = [(lo - m, (fl[i + 1][0] - m) if i + 1 < len(fl) else max(top, hi + m))
+                  for i, (lo, hi) in enumerate(fl)]
+    for lo, hi in chunks:
+        m = hor & (xyz[:, 2] >= lo) & (xyz[:, 2] <= hi)
+        fr = storey_frame(detect_levels(xyz[m], params, spacing), params)
+        if fr is not None:
+            frames.append(fr)
+    if not frames:
+        raise ReconstructionError("no floor and ceiling found (no two horizontal levels at least "
+                                  f"{params.min_storey_height} m apart)", cloud.source or None)
+    log.info("storeys: %s", [(round(f.floor, 3), [round(c, 3) for c in f.ceilings]) for f in frames])
+    timings["levels"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    parts, model_storeys = [], []
+    T = np.eye(4) if transform is None else np.asarray(transform, dtype=np.float64)
+    for si, fr in enumerate(frames):
+        p(0.3 + 0.5 * si / len(frames), f"storey {si}: place and classify")
+        parts.extend(place_storey(xyz, normals, fr, si, params, spacing))
+        elev = float((T @ np.array([0.0, 0.0, fr.floor, 1.0]))[2] + cloud.offset[2])
+        model_storeys.append(Storey(si, fr.floor, fr.ceiling, f"Storey {si}", elev))
+    timings["place_classify"] = time.perf_counter() - t2
+    p(0.85, "merge and topology")
+    t3 = time.perf_counter()
+    model = BuildingModel(shapes=tuple(parts), storeys=tuple(model_storeys), transform=T, offset=cloud.offset,
+                          provenance=Provenance(method="manhattan", parameters=params.to_dict(),
+                                                source=cloud.source, software="indoor engine"),
+                          name=cloud.source or "manhattan model")
+    model = derive_topology(model, params.tau)
+    timings["topology"] = time.perf_counter() - t3
+    model = model.with_(provenance=Provenance(
+        method="manhattan", parameters=params.to_dict(), timings=timings,
+        trace={"storeys": [{"floor": f.floor, "ceilings": list(f.ceilings)} for f in frames],
+               "cuboids": len(parts)},
+        source=cloud.source, software="indoor engine"))
+    p(1.0, "done")
+    return model
+
+
+def _complete_params(xyz, params):
+    if params is None:
+        return params_from_data(xyz)
+    if params.spacing is None:
+        from .params import estimate_spacing
+
+        return params.with_(spacing=estimate_spacing(xyz))
+    return params
+
+
+# --------------------------------------------------------------------------- alignment
+def align_fallback(xyz: np.ndarray, normals: np.ndarray, max_angle: float) -> np.ndarray:
+    """Minimal Manhattan alignment, (4, 4) float64 input → aligned rotation.
+
+    Used only when ``engine.segmentation`` is not available. Up = the dominant direction
+    of the normals that are within ``max_angle`` of z (floors and ceilings); the rotation
+    about up is the mean of the wall normals' azimuths folded to 90° (circular mean of
+    4φ). ``xyz`` : (n, 3), ``normals`` : (n, 3) unit.
+    """
+    n = np.asarray(normals, dtype=np.float64)
+    R = np.eye(3)
+    h = n[np.abs(n[:, 2]) >= np.cos(max_angle)]
+    if len(h) >= 3:
+        h = h * np.sign(h[:, 2:3])
+        w, v = np.linalg.eigh(h.T @ h)
+        up = v[:, -1] * np.sign(v[2, -1])
+        axis = np.cross(up, [0.0, 0.0, 1.0])
+        s, c = np.linalg.norm(axis), up[2]
+        if s > 1e-9:
+            k = axis / s
+            K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+            R = np.eye(3) + s * K + (1 - c) * K @ K
+    n2 = n @ R.T
+    vert = np.abs(n2[:, 2]) <= np.sin(max_angle)
+    phi = np.arctan2(n2[vert, 1], n2[vert, 0])
+    if len(phi):
+        ang = np.angle(np.sum(np.exp(4j * phi))) / 4
+        c, s = np.cos(-ang), np.sin(-ang)
+        R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]]) @ R
+    M = np.eye(4)
+    M[:3, :3] = R
+    return M
+
+
+def reconstruct_manhattan(cloud: PointCloud, params: Optional[ManhattanParams] = None, *, rng=None,
+                          progress=None, should_stop=None) -> BuildingModel:
+    """Scan → Manhattan building model (SPEC.md §1–2).
+
+    Preprocessing comes from ``engine.segmentation``: PCA normals (when the cloud has
+    none), Manhattan alignment and storeys (floor and main ceiling of each); the grammar
+    then finds every ceiling level inside each storey itself (rooms of their own height).
+
+    Parameters
+    ----------
+    cloud : PointCloud — any orientation; z roughly up.
+    params : ManhattanParams or None (chosen from the data: :func:`params_from_data`).
+    rng : seed or Generator (alignment k-means restarts, spacing/noise sampling).
+    progress, should_stop : see :class:`engine.progress.Progress`.
+
+    Returns
+    -------
+    BuildingModel in the aligned frame; ``model.transform`` maps it to the input frame.
+    Raises ``EmptyCloudError`` / ``ReconstructionError`` for unusable data and
+    ``Cancelled`` when ``should_stop`` says so.
+    """
+    from ..errors import ReconstructionError as _RE
+    from ..segmentation import align_manhattan, detect_storeys, estimate_normals
+
+    rng = np.random.default_rng(rng)
+    p = Progress.wrap(progress, should_stop)
+    if cloud.n < 10:
+        raise EmptyCloudError("too few points for a reconstruction", cloud.source or None)
+    t0 = time.perf_counter()
+    p(0.0, "normals")
+    seed = int(rng.integers(2**31))
+    base = params or ManhattanParams()
+    if cloud.normals is None:
+        cloud = estimate_normals(cloud)
+    p(0.1, "Manhattan alignment")
+    aligned, T = align_manhattan(cloud, rng=seed)
+    p(0.15, "storeys")
+    try:
+        storeys = detect_storeys(aligned)
+    except _RE as e:  # fall back to the grammar's own slab/level analysis
+        log.warning("segmentation found no storey (%s); using the grammar's level analysis", e)
+        storeys = None
+    if params is None or params.spacing is None:
+        params = params_from_data(aligned.xyz, base, rng=seed)
+    t_pre = time.perf_counter() - t0
+    model = reconstruct_grammar(aligned, params, storeys, progress=p.sub(0.2, 1.0), transform=T)
+    timings = {"preprocess": t_pre, **model.provenance.timings}
+    return model.with_(provenance=Provenance(
+        method="manhattan", parameters=params.to_dict(), seed=seed, timings=timings,
+        trace=model.provenance.trace, source=cloud.source, software="indoor engine"))

@@ -1,0 +1,138 @@
+"""Parameters of the Manhattan shape grammar (SPEC.md §2 and §6).
+
+The defaults are the thesis's values for real TLS data (Table 6.2: histogram bin 3–5 cm,
+maximum wall thickness 0.125–0.5 m, shape buffer 0.05–0.2 m). :func:`params_from_data`
+chooses the data-dependent ones from the point spacing and the noise of a cloud; the
+rules for that choice are written next to each field.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, replace
+from typing import Optional
+
+import numpy as np
+
+__all__ = ["ManhattanParams", "params_from_data", "estimate_noise", "estimate_spacing"]
+
+
+@dataclass(frozen=True)
+class ManhattanParams:
+    """Parameters of the Manhattan grammar. Metres and radians.
+
+    Choosing them from the data (what :func:`params_from_data` does):
+
+    * ``spacing`` σ — the mean distance between neighbouring points on a surface; from
+      the local density of the cloud, σ = 1/sqrt(points per m²).
+    * ``shape_buffer`` δ — larger than the noise, smaller than a wall thickness:
+      ``max(3 σ_noise, σ, 0.03)`` capped at half the minimum wall thickness.
+    * ``bin_size`` — at most half the maximum wall thickness (SPEC.md §2); a few times
+      the noise so that one surface falls into one or two bins.
+    * ``tau`` τ — empirical; faces need not be fully covered (doors, clutter, occlusion).
+    """
+
+    tau: float = 0.3
+    """τ: a face is "seen" when its point-on-face index reaches τ (0–1)."""
+    bin_size: float = 0.03
+    """Histogram bin of the place rule, metres (thesis: 0.03–0.05; ≤ max wall thickness / 2)."""
+    shape_buffer: float = 0.05
+    """δ: points within this distance of a face count for its point-on-face index, metres."""
+    max_wall_thickness: float = 0.5
+    """A cuboid whose smaller horizontal size is at most this may be a wall, metres."""
+    min_interval: float = 0.05
+    """Two histogram peaks closer than this are one surface (no cuboid thinner), metres."""
+    spacing: Optional[float] = None
+    """σ of the point-on-face index, metres; None = estimate from the data."""
+    min_wall_area: float = 1.5
+    """A vertical histogram peak must hold at least this much surface (points × σ²), m²."""
+    min_level_area: float = 2.0
+    """A floor or ceiling level must hold at least this much surface, m²."""
+    min_storey_height: float = 1.8
+    """Floor-to-ceiling distance below which a pair of levels is not a storey, metres."""
+    normal_angle: float = float(np.deg2rad(20.0))
+    """θ: a point whose normal is within θ of an axis counts for that axis's histogram."""
+    normal_neighbours: int = 16
+    """k nearest neighbours of the PCA normals (used when the cloud has none)."""
+    min_slab_thickness: float = 0.1
+    """A z range at least this long with (almost) no points is a slab between storeys, m."""
+    slab_gap_share: float = 0.05
+    """...where "almost no points" is less than this share of the median z-bin area."""
+    corridor_aspect: float = 3.0
+    """A space whose footprint is this many times longer than wide is named a corridor."""
+    corridor_max_width: float = 2.5
+    """...and is at most this wide, metres."""
+    level_cell: float = 0.25
+    """Cell of the 2D occupancy grid that tells ceilings (nothing above) from desks, metres."""
+    level_exposed: float = 0.5
+    """A horizontal level is a ceiling when at least this share of its cells has no
+    horizontal surface above it in the storey (a floor: nothing below)."""
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def with_(self, **changes) -> "ManhattanParams":
+        return replace(self, **changes)
+
+
+def estimate_spacing(xyz: np.ndarray, sample: int = 20000, radius: float = 0.1, percentile: float = 10.0,
+                     rng=0) -> float:
+    """Surface point spacing σ = 1/sqrt(ρ), ρ a low percentile of the local surface density.
+
+    Parameters
+    ----------
+    xyz : (n, 3) float64 — metres.
+    sample : number of query points (random, ``rng``).
+    radius : neighbourhood radius, metres; ρ = (neighbours) / (π r²).
+    percentile : which percentile of ρ (0–100). A terrestrial scan is much denser near
+        the scanner than on the far walls; taking the sparsest tenth (10) makes σ the
+        spacing of the far surfaces, so that they can still reach τ (IPoF counts one
+        point per σ × σ cell, so a denser patch cannot score above 1).
+
+    Returns σ in metres (0.0 for fewer than two points). This is density-based rather
+    than nearest-neighbour based: for random sampling the nearest-neighbour distance is
+    about half of 1/sqrt(ρ), which would make a fully seen face score ~0.25, not 1.
+    """
+    rng = np.random.default_rng(rng)
+    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    if len(xyz) < 2:
+        return 0.0
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(xyz)
+    q = xyz if len(xyz) <= sample else xyz[rng.choice(len(xyz), sample, replace=False)]
+    counts = tree.query_ball_point(q, r=radius, return_length=True).astype(np.float64)
+    rho = np.percentile(np.maximum(counts - 1, 1), percentile) / (np.pi * radius**2)
+    return float(1.0 / np.sqrt(rho))
+
+
+def estimate_noise(xyz: np.ndarray, sample: int = 5000, k: int = 20, rng=0) -> float:
+    """Surface noise σ_noise: median of the smallest PCA standard deviation over k
+    neighbours (metres). On a plane this is the scatter across the surface."""
+    rng = np.random.default_rng(rng)
+    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    if len(xyz) <= k:
+        return 0.0
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(xyz)
+    q = xyz if len(xyz) <= sample else xyz[rng.choice(len(xyz), sample, replace=False)]
+    _, idx = tree.query(q, k=k)
+    nb = xyz[idx]  # (m, k, 3)
+    c = nb - nb.mean(axis=1, keepdims=True)
+    cov = np.einsum("mki,mkj->mij", c, c) / k
+    ev = np.linalg.eigvalsh(cov)[:, 0]
+    return float(np.sqrt(np.median(np.maximum(ev, 0))))
+
+
+def params_from_data(xyz: np.ndarray, base: Optional[ManhattanParams] = None, rng=0) -> ManhattanParams:
+    """Choose σ, δ and the bin size from a cloud's spacing and noise.
+
+    ``xyz`` : (n, 3) float64, metres. ``base`` gives the other fields (defaults when None).
+    The rules: σ from :func:`estimate_spacing`; δ = clip(max(3 σ_noise, σ), 0.03,
+    max_wall_thickness / 4); bin = clip(2 σ_noise, 0.02, 0.05) but ≤ max_wall_thickness / 2.
+    """
+    base = base or ManhattanParams()
+    spacing = base.spacing if base.spacing is not None else estimate_spacing(xyz, rng=rng)
+    noise = estimate_noise(xyz, rng=rng)
+    buffer = float(np.clip(max(3 * noise, spacing), 0.03, base.max_wall_thickness / 4))
+    bin_size = float(min(np.clip(2 * noise, 0.02, 0.05), base.max_wall_thickness / 2))
+    return replace(base, spacing=spacing, shape_buffer=buffer, bin_size=bin_size)

@@ -1,0 +1,218 @@
+"""Rule 1, *place* ``I → N : H ≠ 0``: histogram peaks → grid intervals → cuboids.
+
+Wall surfaces are peaks of the histograms of x and y of the points whose normal points
+along that axis; floor and ceiling levels are peaks of the histogram of z of the points
+with vertical normals. Peaks are measured in *area* (distinct σ-cells × σ²), not in raw
+counts, so that the dense patch right under a terrestrial scanner is no peak.
+
+Storeys and levels. A horizontal level is a **ceiling** when most of its cells have no
+other horizontal surface above them within the storey, a **floor** when most have none
+below; a level with surfaces both above and below (a desk, a shelf) is neither and makes
+no cut. The storeys are the z ranges between consecutive floor → top-ceiling pairs.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from .params import ManhattanParams
+
+__all__ = ["Peak", "Level", "StoreyFrame", "histogram_peaks", "detect_levels", "storey_chunks", "storey_frame",
+           "estimate_normals_pca"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Peak:
+    """A surface found in a histogram: ``position`` (metres) and ``area`` (m²)."""
+
+    position: float
+    area: float
+
+
+@dataclass(frozen=True)
+class Level:
+    """A horizontal surface level: z (metres), area (m²), share of cells with nothing
+    above (``exposed_up``) and nothing below (``exposed_down``) in the storey."""
+
+    z: float
+    area: float
+    exposed_up: float
+    exposed_down: float
+
+
+@dataclass(frozen=True)
+class StoreyFrame:
+    """One storey's vertical cuts: ``floor`` z, ``ceilings`` (increasing z), metres."""
+
+    floor: float
+    ceilings: tuple
+
+    @property
+    def ceiling(self) -> float:
+        return float(self.ceilings[-1])
+
+    @property
+    def cuts(self) -> np.ndarray:
+        """(k + 1,) float64 — floor then every ceiling level: the z edges of the cuboids."""
+        return np.array([self.floor, *self.ceilings], dtype=np.float64)
+
+
+def estimate_normals_pca(xyz: np.ndarray, k: int = 16) -> np.ndarray:
+    """Unoriented PCA normals (open3d k-NN), (n, 3) float64 unit vectors.
+
+    A minimal stand-in used when the cloud has no normals and ``engine.segmentation``
+    is not available.
+    """
+    import open3d as o3d
+
+    pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(xyz, dtype=np.float64)))
+    pc.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=int(k)))
+    n = np.asarray(pc.normals, dtype=np.float64)
+    if len(n) != len(xyz):
+        n = np.zeros((len(xyz), 3))
+    return n
+
+
+def _area_profile(t: np.ndarray, uv: np.ndarray, edges: np.ndarray, spacing: float) -> np.ndarray:
+    """Area (m²) of distinct σ-cells per histogram bin. t (n,), uv (n, 2) metres."""
+    nb = len(edges) - 1
+    if len(t) == 0 or nb <= 0:
+        return np.zeros(max(nb, 0))
+    b = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, nb - 1)
+    cu = np.floor(uv / spacing).astype(np.int64)
+    key = np.unique(np.column_stack([b, cu]), axis=0)
+    return np.bincount(key[:, 0], minlength=nb).astype(np.float64) * spacing**2
+
+
+def histogram_peaks(t: np.ndarray, uv: np.ndarray, params: ManhattanParams, spacing: float,
+                    min_area: float, lo: float | None = None, hi: float | None = None) -> list[Peak]:
+    """Peaks of an area histogram along one axis.
+
+    Parameters
+    ----------
+    t : (n,) float64 — coordinate along the axis, metres.
+    uv : (n, 2) float64 — the two other coordinates, metres (for the cell areas).
+    min_area : smallest surface a peak must hold, m².
+    lo, hi : optional range of t.
+
+    Returns the peaks, increasing, each refined to the mean t of the points within a
+    bin and a half of it and merged with any neighbour closer than ``min_interval``.
+    """
+    if len(t) == 0:
+        return []
+    bs = params.bin_size
+    lo = float(t.min()) if lo is None else lo
+    hi = float(t.max()) if hi is None else hi
+    edges = np.arange(lo - bs, hi + 2 * bs, bs)
+    prof = _area_profile(t, uv, edges, spacing)
+    win = np.convolve(prof, np.ones(3), mode="same")  # one surface spreads over 1-3 bins
+    cand = np.flatnonzero(win >= min_area)
+    peaks: list[Peak] = []
+    order = cand[np.argsort(-win[cand], kind="stable")]
+    taken = np.zeros(len(win), dtype=bool)
+    sep = max(int(np.ceil(params.min_interval / bs)), 1)
+    for c in order:  # non-maximum suppression, strongest first
+        if taken[max(c - sep, 0):c + sep + 1].any():
+            continue
+        taken[c] = True
+        centre = (edges[c] + edges[c + 1]) / 2
+        for _ in range(3):  # refine on the points near the peak
+            near = np.abs(t - centre) <= 1.5 * bs
+            if not near.any():
+                break
+            centre = float(np.mean(t[near]))
+        peaks.append(Peak(centre, float(win[c])))
+    peaks.sort(key=lambda p: p.position)
+    merged: list[Peak] = []
+    for p in peaks:
+        if merged and p.position - merged[-1].position < params.min_interval:
+            q = merged[-1]
+            w = q.area + p.area
+            merged[-1] = Peak((q.position * q.area + p.position * p.area) / w, max(q.area, p.area))
+        else:
+            merged.append(p)
+    return merged
+
+
+def detect_levels(xyz_h: np.ndarray, params: ManhattanParams, spacing: float) -> list[Level]:
+    """Horizontal levels of the points with vertical normals, with their exposure.
+
+    ``xyz_h`` : (n, 3) float64 — points on horizontal surfaces, metres.
+    """
+    peaks = histogram_peaks(xyz_h[:, 2], xyz_h[:, :2], params, spacing, params.min_level_area)
+    if not peaks:
+        return []
+    buf = max(params.shape_buffer, 1.5 * params.bin_size)
+    cell = params.level_cell
+    cells_of = []
+    for p in peaks:
+        near = np.abs(xyz_h[:, 2] - p.position) <= buf
+        cells_of.append({tuple(c) for c in np.unique(np.floor(xyz_h[near, :2] / cell).astype(np.int64), axis=0)})
+    levels = []
+    for i, p in enumerate(peaks):
+        mine = cells_of[i]
+        above = set().union(*cells_of[i + 1:]) if i + 1 < len(peaks) else set()
+        below = set().union(*cells_of[:i]) if i > 0 else set()
+        n = max(len(mine), 1)
+        levels.append(Level(p.position, p.area, len(mine - above) / n, len(mine - below) / n))
+    return levels
+
+
+def storey_chunks(z: np.ndarray, uv: np.ndarray, params: ManhattanParams, spacing: float) -> list[tuple]:
+    """Split the z range at slabs: runs of bins that hold almost no surface.
+
+    ``z`` : (n,) float64 and ``uv`` : (n, 2) float64 — all points, metres. Inside a slab
+    nothing is scanned, so a run of z bins at least ``min_slab_thickness`` long whose
+    area is below ``slab_gap_share`` of the median bin area separates two storeys.
+    Returns ``[(z_lo, z_hi), ...]`` increasing (one chunk when there is no slab).
+    """
+    if len(z) == 0:
+        return []
+    bs = params.bin_size
+    lo, hi = float(z.min()), float(z.max())
+    edges = np.arange(lo, hi + bs, bs)
+    if len(edges) < 3:
+        return [(lo, hi)]
+    prof = _area_profile(z, uv, edges, spacing)
+    nz = prof[prof > 0]
+    gap = prof < params.slab_gap_share * (np.median(nz) if len(nz) else 0.0)
+    need = max(int(np.ceil(params.min_slab_thickness / bs)), 1)
+    chunks, start, i = [], 0, 0
+    while i < len(gap):
+        if gap[i]:
+            j = i
+            while j < len(gap) and gap[j]:
+                j += 1
+            if j - i >= need and i > start and j < len(gap):
+                chunks.append((float(edges[start]), float(edges[i])))
+                start = j
+            i = j
+        else:
+            i += 1
+    chunks.append((float(edges[start]), hi))
+    return [c for c in chunks if c[1] - c[0] >= params.min_storey_height]
+
+
+def storey_frame(levels: list[Level], params: ManhattanParams):
+    """The storey of one chunk: its floor and ceiling levels, or None.
+
+    The floor is the lowest level with ``exposed_down ≥ level_exposed`` (nothing below
+    it), the ceilings are the levels at least ``min_storey_height`` above the floor with
+    ``exposed_up ≥ level_exposed`` (nothing above them). Levels that are neither (desks,
+    shelves, beds) make no cut. Without a clear floor or ceiling the lowest / highest
+    level is taken.
+    """
+    if len(levels) < 2:
+        return None
+    thr = params.level_exposed
+    floors = [lv for lv in levels if lv.exposed_down >= thr] or [levels[0]]
+    floor = floors[0]
+    above = [lv for lv in levels if lv.z - floor.z >= params.min_storey_height]
+    if not above:
+        return None
+    ceilings = [lv for lv in above if lv.exposed_up >= thr] or [above[-1]]
+    return StoreyFrame(float(floor.z), tuple(float(c.z) for c in ceilings))

@@ -1,0 +1,404 @@
+"""The rules of the shape grammar (SPEC.md §2), written so that they read like it.
+
+A rule is ``antecedent → subsequent : condition``. Here:
+
+* :func:`classify` — rule 2, ``A → A[type] : cond`` (wall / interior / exterior);
+* :func:`part_relations` — rules 3 and 4 *before merging*: adjacency of shapes sharing a
+  face, connectivity when the common face carries no surface (IPoF < τ);
+* :func:`merge` — rule 5, connected interior (or exterior) parts become their union;
+  wall parts in one line become one wall; rule 6 *containment* records parent/children;
+* :func:`space_relations` — rules 3 and 4 *after merging*: spaces are adjacent when a
+  wall lies between them and connected when that wall holds a door;
+* :func:`derive_topology` — the production order after classification:
+  connectivity* → (merge, containment, adjacency)* → doors → connectivity*.
+  Manual reclassification and door insertion call it again, so everything downstream is
+  re-derived from the parts and their stored point-on-face figures.
+
+These functions work on any model whose parts (placed shapes) carry ``ipof_f<i>`` support
+figures per face; the Manhattan grammar makes such parts, and the generic pipeline can.
+"""
+from __future__ import annotations
+
+import logging
+from collections import defaultdict
+from typing import Optional
+
+import numpy as np
+
+from ..model import BuildingModel, Relation, Shape, ShapeType
+from .geometry import box_of, shared_faces, union_of_boxes
+
+__all__ = ["classify", "part_relations", "merge", "space_relations", "derive_topology",
+           "wall_with_openings", "is_part", "DEFAULT_TAU"]
+
+log = logging.getLogger(__name__)
+
+DEFAULT_TAU = 0.3
+"""τ used when a model does not record its own (``provenance.parameters['tau']``)."""
+
+_SPACE_TYPES = (ShapeType.INTERIOR, ShapeType.EXTERIOR)
+
+
+# --------------------------------------------------------------------------- rule 2
+def classify(support: dict, thin: bool, above_interior: bool, tau: float) -> tuple[ShapeType, str]:
+    """Rule 2, classify ``A → A[type]``.
+
+    Parameters
+    ----------
+    support : the part's point-on-face figures (``ipof_sides``, ``ipof_top``).
+    thin : its smaller horizontal size is at most the maximum wall thickness.
+    above_interior : its top face touches a shape already typed interior.
+    tau : τ.
+
+    Returns the type and the log line that says why.
+
+    The conditions, in order:
+
+    * thin, IPoF(sides) ≥ τ and IPoF(top) < τ → wall. (SPEC.md: thin and IPoF(sides)
+      ≥ τ. The extra "top not seen" condition keeps a thin slice of a room between a wall
+      and a cupboard, whose top is ceiling, from becoming a wall.)
+    * IPoF(top) ≥ τ, or the top touches an interior shape → interior space;
+    * otherwise → exterior space.
+    """
+    sides, top = support.get("ipof_sides", 0.0), support.get("ipof_top", 0.0)
+    if thin and sides >= tau and top < tau:
+        return ShapeType.WALL, f"classify: thin, IPoF(sides)={sides:.2f} >= tau={tau:g}, IPoF(top)={top:.2f} < tau -> wall"
+    if top >= tau:
+        return ShapeType.INTERIOR, f"classify: IPoF(top)={top:.2f} >= tau={tau:g} -> interior"
+    if above_interior:
+        return ShapeType.INTERIOR, f"classify: IPoF(top)={top:.2f} < tau={tau:g} but top touches an interior shape -> interior"
+    return ShapeType.EXTERIOR, f"classify: IPoF(top)={top:.2f} < tau={tau:g}" + (
+        f", IPoF(sides)={sides:.2f}" if thin else "") + " -> exterior"
+
+
+# --------------------------------------------------------------------------- helpers
+def is_part(s: Shape) -> bool:
+    """A placed shape (grammar part): a cuboid from the place rule or a cell."""
+    return s.grid is not None or bool(s.attributes.get("part"))
+
+
+def _face_ipof(s: Shape, face: int) -> float:
+    return float(s.support.get(f"ipof_f{face}", 0.0))
+
+
+class _UnionFind:
+    def __init__(self, items):
+        self.p = {i: i for i in items}
+
+    def find(self, a):
+        while self.p[a] != a:
+            self.p[a] = self.p[self.p[a]]
+            a = self.p[a]
+        return a
+
+    def union(self, a, b):
+        ra, rb = self.find(a), self.find(b)
+        if ra != rb:
+            if rb < ra:
+                ra, rb = rb, ra
+            self.p[rb] = ra
+
+    def groups(self):
+        g = defaultdict(list)
+        for i in self.p:
+            g[self.find(i)].append(i)
+        return list(g.values())
+
+
+# --------------------------------------------------------------------------- rules 3, 4
+def part_relations(parts: list[Shape], tau: float, touching=None) -> tuple[list[Relation], list[tuple]]:
+    """Rules 3 and 4 before merging.
+
+    Adjacency ``{A1, A2} → {A1[adj], A2[adj]}`` when they share a face; connectivity when
+    both are spaces of one type and the common face carries no surface,
+    IPoF(common face) < τ. Returns the relations and the list of connected pairs.
+    ``touching`` : the :func:`shared_faces` of ``parts`` when already known.
+    """
+    touching = shared_faces(parts) if touching is None else touching
+    by_id = {s.id: s for s in parts}
+    rel, connected = [], []
+    for t in touching:
+        a, b = by_id[t.a], by_id[t.b]
+        if a.storey != b.storey:
+            continue
+        rel.append(Relation("adjacency", a.id, b.id))
+        if a.type == b.type and a.type in _SPACE_TYPES:
+            f = max(_face_ipof(a, t.fa), _face_ipof(b, t.fb))
+            if f < tau:
+                connected.append((a.id, b.id))
+                if a.type == ShapeType.INTERIOR:
+                    rel.append(Relation("connectivity", a.id, b.id))
+    return rel, connected
+
+
+# --------------------------------------------------------------------------- rules 5, 6
+def _bounds_union(shapes: list[Shape]) -> np.ndarray:
+    return np.stack([s.bounds for s in shapes])
+
+
+def _merge_walls(walls: list[Shape]) -> list[list[Shape]]:
+    """Wall parts of one line: consecutive grid cuboids with the same thin interval."""
+    groups, used = [], set()
+    grid = [w for w in walls if w.grid is not None]
+    for w in walls:
+        if w.grid is None:
+            groups.append([w])
+            used.add(w.id)
+    for axis in (0, 1):  # runs along y of parts thin in x, then runs along x
+        run_axis = 1 - axis
+        cells = {}
+        for w in grid:
+            if w.id in used:
+                continue
+            ta = w.attributes.get("thin_axis", axis)
+            if ta not in (axis, 2):
+                continue
+            key = (w.storey, w.grid[axis], w.grid[2])
+            cells.setdefault(key, {})[w.grid[run_axis]] = w
+        for key, row in sorted(cells.items()):
+            idx = sorted(row)
+            run = []
+            for j in idx:
+                if run and j != run[-1].grid[run_axis] + 1:
+                    groups.append(run)
+                    run = []
+                run.append(row[j])
+            if run:
+                groups.append(run)
+            for w in row.values():
+                used.add(w.id)
+    return groups
+
+
+def wall_with_openings(lo, hi, openings) -> "Polyhedron":  # noqa: F821
+    """A box wall with door openings cut through it.
+
+    ``lo``, ``hi`` : (3,) corners of the wall, metres; ``openings`` : list of (lo, hi)
+    door boxes (clipped to the wall). Returns the boundary of wall minus openings.
+    """
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    if not openings:
+        return box_of(lo, hi)
+    ops = [(np.maximum(np.asarray(a, float), lo), np.minimum(np.asarray(b, float), hi)) for a, b in openings]
+    cuts = [np.unique(np.concatenate([[lo[k], hi[k]], *[[a[k], b[k]] for a, b in ops]])) for k in range(3)]
+    cells = []
+    for i in range(len(cuts[0]) - 1):
+        for j in range(len(cuts[1]) - 1):
+            for k in range(len(cuts[2]) - 1):
+                c = np.array([(cuts[0][i] + cuts[0][i + 1]) / 2, (cuts[1][j] + cuts[1][j + 1]) / 2,
+                              (cuts[2][k] + cuts[2][k + 1]) / 2])
+                if any(np.all(c > a) and np.all(c < b) for a, b in ops):
+                    continue
+                cells.append([[cuts[0][i], cuts[1][j], cuts[2][k]], [cuts[0][i + 1], cuts[1][j + 1], cuts[2][k + 1]]])
+    return union_of_boxes(np.array(cells))
+
+
+def merge(parts: list[Shape], connected: list[tuple]) -> tuple[list[Shape], list[Shape]]:
+    """Rule 5, merge ``{A1, A2} → B``, with rule 6, containment (B contains A1, A2).
+
+    Connected interior parts become one interior space, connected exterior parts one
+    exterior space, wall parts of one line one wall. Every merged shape is active and
+    lists its parts as ``children``; the parts become inactive with ``parent`` set.
+    Returns (merged shapes, updated parts).
+    """
+    by_id = {s.id: s for s in parts}
+    uf = _UnionFind([s.id for s in parts if s.type in _SPACE_TYPES])
+    for a, b in connected:
+        if a in uf.p and b in uf.p:
+            uf.union(a, b)
+    merged, parent_of = [], {}
+    for grp in uf.groups():
+        members = sorted((by_id[i] for i in grp), key=lambda s: s.id)
+        kind = members[0].type
+        sid = ("space_" if kind == ShapeType.INTERIOR else "exterior_") + members[0].id
+        merged.append(_merged_shape(sid, kind, members))
+        for m in members:
+            parent_of[m.id] = sid
+    for run in _merge_walls([s for s in parts if s.type == ShapeType.WALL]):
+        run = sorted(run, key=lambda s: s.id)
+        sid = "wall_" + run[0].id
+        merged.append(_merged_shape(sid, ShapeType.WALL, run))
+        for m in run:
+            parent_of[m.id] = sid
+    new_parts = []
+    for s in parts:
+        p = parent_of.get(s.id)
+        new_parts.append(s.with_(parent=p, active=p is None, children=()))
+    return merged, new_parts
+
+
+def _merged_shape(sid: str, kind: ShapeType, members: list[Shape]) -> Shape:
+    b = _bounds_union(members)
+    geom = union_of_boxes(b)
+    lo, hi = b[:, 0].min(axis=0), b[:, 1].max(axis=0)
+    attrs = {"merged": True, "floor_z": float(lo[2]), "ceiling_z": float(hi[2])}
+    if kind == ShapeType.WALL:
+        size = hi - lo
+        axis = int(np.argmax(size[:2]))
+        attrs.update(thickness=float(size[1 - axis]), axis=axis, height=float(size[2]))
+    elif kind == ShapeType.INTERIOR:
+        fp = geom.footprint()
+        if fp is not None:
+            x, y = fp[:, 0], fp[:, 1]
+            attrs["area"] = float(abs(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) / 2)
+        attrs["height"] = float(hi[2] - lo[2])
+    line = f"merge: {len(members)} connected {kind.value} part(s) -> {sid}"
+    return Shape(id=sid, type=kind, geometry=geom, storey=members[0].storey, terminal=True,
+                 active=True, children=tuple(m.id for m in members), attributes=attrs, log=(line,))
+
+
+# --------------------------------------------------------------------------- doors
+def _attach_doors(walls: list[Shape], doors: list[Shape]) -> tuple[list[Shape], list[Shape]]:
+    """Rule 6 for doors: each door is contained in the wall holding its centre; the
+    wall's geometry gets the opening. Doors whose wall is gone are dropped (logged)."""
+    out_walls, out_doors = {w.id: w for w in walls}, []
+    holes = defaultdict(list)
+    for d in doors:
+        c = np.asarray(d.attributes.get("center", d.centroid), dtype=float)
+        host = None
+        for w in walls:
+            lo, hi = w.bounds
+            if np.all(c >= lo - 1e-6) and np.all(c <= hi + 1e-6):
+                host = w
+                break
+        if host is None:
+            log.warning("door %s: no wall holds it any more; dropped", d.id)
+            continue
+        out_doors.append(d.with_(parent=host.id, storey=host.storey))
+        holes[host.id].append(d)
+    for wid, ds in holes.items():
+        w = out_walls[wid]
+        lo, hi = w.bounds
+        geom = wall_with_openings(lo, hi, [tuple(d.bounds) for d in ds])
+        out_walls[wid] = w.with_(geometry=geom, scope=w.scope, children=w.children + tuple(d.id for d in ds),
+                                 attributes={**w.attributes, "openings": [d.id for d in ds]})
+    return list(out_walls.values()), out_doors
+
+
+# --------------------------------------------------------------------------- rules 3, 4 after merge
+def space_relations(parts: list[Shape], top: dict, doors: list[Shape],
+                    touching=None) -> list[Relation]:
+    """Rules 3 and 4 after merging.
+
+    Adjacency: two interior spaces with a wall between them (``via`` = the wall), or
+    sharing a face directly. Connectivity: spaces whose common wall holds a door
+    (``via`` = the door), recorded between the spaces and between the parts on either
+    side of the door (so the sub-space graph passes through the door too).
+    ``top`` maps a part id to its merged shape id.
+    """
+    touching = shared_faces(parts) if touching is None else touching
+    by_id = {s.id: s for s in parts}
+    rel = []
+    # faces of wall parts, by side: wall part -> {face: [space parts]}
+    sides = defaultdict(lambda: defaultdict(list))
+    for t in touching:
+        a, b = by_id[t.a], by_id[t.b]
+        if a.storey != b.storey:
+            continue
+        for w, fw, s in ((a, t.fa, b), (b, t.fb, a)):
+            if w.type == ShapeType.WALL and s.type in _SPACE_TYPES:
+                sides[w.id][fw].append(s)
+        if a.type == b.type == ShapeType.INTERIOR and top[a.id] != top[b.id]:
+            rel.append(Relation("adjacency", top[a.id], top[b.id]))
+    for wid, faces in sides.items():
+        w = by_id[wid]
+        normals = {f: w.geometry.face_normal(f) for f in faces}
+        fl = list(faces)
+        for i in range(len(fl)):
+            for j in range(i + 1, len(fl)):
+                if normals[fl[i]] @ normals[fl[j]] > -0.99:
+                    continue
+                for L in faces[fl[i]]:
+                    for R in faces[fl[j]]:
+                        if L.type == R.type == ShapeType.INTERIOR and top[L.id] != top[R.id]:
+                            rel.append(Relation("adjacency", top[L.id], top[R.id], top[wid]))
+    if doors:
+        door_touch = shared_faces(list(doors) + [s for s in parts if s.type in _SPACE_TYPES])
+        dsides = defaultdict(lambda: defaultdict(list))
+        door_ids = {d.id: d for d in doors}
+        for t in door_touch:
+            if t.a in door_ids and t.b in by_id:
+                dsides[t.a][t.fa].append(by_id[t.b])
+            elif t.b in door_ids and t.a in by_id:
+                dsides[t.b][t.fb].append(by_id[t.a])
+        for did, faces in dsides.items():
+            d = door_ids[did]
+            fl = list(faces)
+            for i in range(len(fl)):
+                for j in range(i + 1, len(fl)):
+                    if d.geometry.face_normal(fl[i]) @ d.geometry.face_normal(fl[j]) > -0.99:
+                        continue
+                    for L in faces[fl[i]]:
+                        for R in faces[fl[j]]:
+                            if L.id == R.id:
+                                continue
+                            rel.append(Relation("connectivity", L.id, R.id, did))
+                            if top[L.id] != top[R.id]:
+                                rel.append(Relation("connectivity", top[L.id], top[R.id], did))
+    return rel
+
+
+# --------------------------------------------------------------------------- procedure
+def derive_topology(model: BuildingModel, tau: Optional[float] = None) -> BuildingModel:
+    """Re-derive everything downstream of classification; returns a new model.
+
+    connectivity of parts → merge + containment → adjacency → doors (containment) →
+    connectivity. Works from the parts' types and stored face figures, so it needs no
+    point cloud: this is what a manual reclassification or door insertion re-runs.
+
+    A model without parts (e.g. a ground-truth or IFC model) keeps its spaces and walls;
+    only its relations are re-derived (walls between spaces, doors in walls).
+    """
+    if tau is None:
+        tau = float(model.provenance.parameters.get("tau", DEFAULT_TAU)) if model.provenance else DEFAULT_TAU
+    parts = [s for s in model.shapes if is_part(s)]
+    doors = [s for s in model.shapes if s.type == ShapeType.DOOR]
+    if parts:
+        others = [s for s in model.shapes if not is_part(s) and not s.attributes.get("merged")
+                  and s.type != ShapeType.DOOR]
+        touching = shared_faces(parts)
+        rel_parts, connected = part_relations(parts, tau, touching)
+        merged, parts = merge(parts, connected)
+        walls = [m for m in merged if m.type == ShapeType.WALL]
+        walls, doors = _attach_doors(walls, doors)
+        merged = [m for m in merged if m.type != ShapeType.WALL] + walls
+        merged = _name(merged)
+        top = {p.id: p.parent or p.id for p in parts}
+        rel = rel_parts + space_relations(parts, top, doors, touching)
+        shapes = parts + merged + doors + others
+    else:
+        units = [s for s in model.shapes if s.type in _SPACE_TYPES + (ShapeType.WALL,) and s.active]
+        walls = [s for s in units if s.type == ShapeType.WALL]
+        top = {s.id: s.id for s in units}
+        rel = space_relations(units, top, [d for d in doors if d.active])
+        shapes = list(model.shapes)
+    order = {s.id: i for i, s in enumerate(model.shapes)}
+    shapes.sort(key=lambda s: order.get(s.id, len(order)))
+    return model.with_(shapes=tuple(shapes), relations=tuple(dict.fromkeys(rel)))
+
+
+def _name(merged: list[Shape], corridor_aspect: float = 3.0, corridor_width: float = 2.5) -> list[Shape]:
+    """Names: "Room n" / "Corridor" (long and narrow) / "Wall n" / "Exterior n", numbered by
+    storey then position."""
+    def key(s):
+        c = s.centroid
+        return (s.storey, round(float(c[1]), 2), round(float(c[0]), 2))
+
+    out, counters = [], defaultdict(int)
+    for s in sorted(merged, key=key):
+        if s.type == ShapeType.INTERIOR:
+            sz = s.scope.size
+            long_, short = max(sz[0], sz[1]), min(sz[0], sz[1])
+            if short > 0 and long_ / short >= corridor_aspect and short <= corridor_width:
+                label = "Corridor"
+            else:
+                label = "Room"
+        elif s.type == ShapeType.WALL:
+            label = "Wall"
+        else:
+            label = "Exterior"
+        counters[label] += 1
+        n = counters[label]
+        name = (label if n == 1 else f"{label} {n}") if label == "Corridor" else f"{label} {n}"
+        out.append(s.with_(name=name))
+    return out
