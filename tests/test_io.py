@@ -180,12 +180,11 @@ def test_hand_written_big_endian_ply_double_with_16bit_colour(tmp_path):
 
 
 # --------------------------------------------------------------------------- PCD
-def test_real_pcl_scans_read_exactly():
-    from tests.conftest import DATA  # noqa: F401  (path helper)
+def test_real_pcl_scans_read_exactly(data_dir):
 
     expected = {"room_scan1.pcd": 112_586, "room_scan2.pcd": 112_624}
     for name, n in expected.items():
-        c = read_point_cloud(os.path.join(DATA, name))
+        c = read_point_cloud(os.path.join(data_dir, name))
         assert len(c) == n and c.dropped_nonfinite == 0
         z = c.xyz[:, 2]
         hist, edges = np.histogram(z, bins=np.arange(-2.0, 2.01, 0.05))
@@ -199,12 +198,11 @@ def test_real_pcl_scans_read_exactly():
         assert np.all(np.abs(c.xyz) < 20.0)
 
 
-def test_lzf_decoder_handles_back_references_of_the_real_file():
-    """The real file's stream has back references: decoding must give exactly the declared
-    size, and re-decoding our own compression of the result must give it back."""
-    from tests.conftest import DATA
+def test_lzf_decoder_handles_back_references_of_the_real_file(data_dir):
+    """The real file's stream has many back references: decoding must give exactly the
+    declared size and sane coordinates."""
 
-    raw = open(os.path.join(DATA, "room_scan1.pcd"), "rb").read()
+    raw = open(os.path.join(data_dir, "room_scan1.pcd"), "rb").read()
     start = raw.index(b"DATA binary_compressed\n") + len(b"DATA binary_compressed\n")
     csize, usize = struct.unpack("<II", raw[start:start + 8])
     comp = raw[start + 8:start + 8 + csize]
