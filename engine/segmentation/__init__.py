@@ -10,6 +10,9 @@ from .cleaning import clean, drop_nonfinite, estimate_normals, remove_statistica
 from .params import (AlignParams, CellParams, ClassifyParams, CleanParams, NormalParams, PlaneParams,
                      PreprocessParams, StoreyParams)
 from .storeys import Layer, detect_layers, detect_storeys
+from .planes import Plane, extract_planes
+from .cells import Cell, CellComplex, CellFace, decompose_cells, is_structural_wall, wall_segments
+from .pipeline import Preprocessed, preprocess
 
 __all__ = [
     "AlignmentResult", "align_manhattan", "axial_kmeans", "manhattan_residual",
@@ -18,4 +21,7 @@ __all__ = [
     "AlignParams", "CellParams", "ClassifyParams", "CleanParams", "NormalParams", "PlaneParams",
     "PreprocessParams", "StoreyParams",
     "Layer", "detect_layers", "detect_storeys",
+    "Plane", "extract_planes",
+    "Cell", "CellComplex", "CellFace", "decompose_cells", "is_structural_wall", "wall_segments",
+    "Preprocessed", "preprocess",
 ]

@@ -173,7 +173,15 @@ class CellParams:
     min_cell_area: float = 0.02
     """Slivers below this area (m²) are merged into their longest-shared-edge neighbour."""
     min_wall_area: float = 1.0
-    """Wall planes with less support area (points × voxel²) are not cut into the floor."""
+    """Wall planes with less covered area (m²) are not cut into the floor."""
+    min_wall_height_fraction: float = 0.5
+    """Wall planes whose support spans less than this share of the storey height (furniture
+    sides, low cupboards) are not cut into the floor."""
+    min_ceiling_height: float = 1.8
+    """Horizontal planes at least this far above the floor are ceilings that set the z
+    levels of the cells, metres (lower ones are furniture tops)."""
+    ceiling_margin: float = 0.3
+    """Ceilings up to this far above the storey's ceiling height still count, metres."""
     min_face_length: float = 0.02
     """Shared edges shorter than this do not make two cells adjacent, metres."""
     wall_match_distance: float = 0.05
