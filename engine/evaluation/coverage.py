@@ -1,0 +1,151 @@
+"""Points on surfaces: which points lie on which planar patch, and how much of it they cover.
+
+Shared by the visibility annotation of references (point-on-face index) and by the change
+detection (point classification, surface coverage by 2D alpha shapes, SPEC.md §5).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+from .patches import PlanarPatch, points_inside
+
+__all__ = ["PatchSupport", "patch_support", "alpha_area", "thin_grid"]
+
+CORNER_COS = float(np.cos(np.radians(45.0)))
+"""Two surfaces whose normals differ by more than 45° make a corner (or an edge)."""
+
+
+def thin_grid(xy: np.ndarray, cell: float) -> np.ndarray:
+    """Keep one point per ``cell``-sized square: (n, 2) float64 → (m, 2) float64, m ≤ n."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(xy) == 0 or cell <= 0:
+        return xy
+    keys = np.floor((xy - xy.min(axis=0)) / cell).astype(np.int64)
+    code = keys[:, 0] * (int(keys[:, 1].max()) + 1) + keys[:, 1]
+    _, first = np.unique(code, return_index=True)
+    return xy[np.sort(first)]
+
+
+def alpha_area(xy: np.ndarray, r_alpha: float, *, thin: Optional[float] = None) -> float:
+    """Area (m²) of the 2D alpha shape of points: the Delaunay triangles whose circumradius
+    is below ``r_alpha`` (metres).
+
+    ``xy`` : (n, 2) float64, metres. ``thin`` : grid cell used to thin the points first
+    (default ``r_alpha / 4``; the triangles kept are then still far below ``r_alpha``).
+    Fewer than 3 points, or collinear points, give 0.
+    """
+    from scipy.spatial import Delaunay, QhullError
+
+    xy = thin_grid(xy, r_alpha / 4 if thin is None else thin)
+    if len(xy) < 3:
+        return 0.0
+    try:
+        tri = Delaunay(xy)
+    except (QhullError, ValueError):
+        return 0.0
+    p = xy[tri.simplices]  # (m, 3, 2)
+    a = np.linalg.norm(p[:, 1] - p[:, 2], axis=1)
+    b = np.linalg.norm(p[:, 0] - p[:, 2], axis=1)
+    c = np.linalg.norm(p[:, 0] - p[:, 1], axis=1)
+    area = 0.5 * np.abs((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
+                        - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        radius = a * b * c / (4.0 * area)
+    keep = (area > 0) & (radius < r_alpha)
+    return float(area[keep].sum())
+
+
+@dataclass(frozen=True, eq=False)
+class PatchSupport:
+    """Which points lie on which patch.
+
+    Attributes
+    ----------
+    on_model : (n,) bool
+        The point is within ``max_distance`` of some patch whose outline contains its
+        projection (and whose normal agrees, when normals are used).
+    distance : (n,) float64
+        |distance| to the closest patch whose outline contains the projection (and whose
+        normal agrees), metres; ``inf`` when none is within ``search_distance``.
+    patch : (n,) int32
+        Index of that patch (-1 when none).
+    members : list of (k_j,) int64
+        For each patch, the indices of the points within ``max_distance`` of it (inside
+        its outline, normal agreeing) — a point may support several patches.
+    """
+
+    on_model: np.ndarray
+    distance: np.ndarray
+    patch: np.ndarray
+    members: list
+
+
+def patch_support(patches: Sequence[PlanarPatch], xyz: np.ndarray, max_distance: float, *,
+                  normals: Optional[np.ndarray] = None, max_normal_angle: Optional[float] = None,
+                  search_distance: Optional[float] = None, should_stop=None) -> PatchSupport:
+    """Assign points to the planar patches they lie on (vectorised per patch).
+
+    Parameters
+    ----------
+    patches : list of PlanarPatch
+    xyz : (n, 3) float64
+        Points in the patches' frame, metres.
+    max_distance : float
+        r: a point lies on a patch when |nᵀp − ρ| ≤ r and its projection is inside.
+    normals : (n, 3) float, optional
+        Point normals; with ``max_normal_angle`` (radians) a point only lies on a patch
+        whose normal is within that angle (either direction). A point within r of two
+        non-parallel surfaces (an edge or corner of the model, where estimated normals
+        are blurred) is on the model whatever its normal; ``members`` and ``distance``
+        still only use surfaces the normal agrees with.
+    search_distance : float, optional
+        Distances are reported up to this (default ``max_distance``), metres.
+    should_stop : callable, optional
+        Polled once per patch; see :class:`engine.progress.Progress`.
+    """
+    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    n = len(xyz)
+    search = max(float(search_distance or 0.0), float(max_distance))
+    best = np.full(n, np.inf)
+    best_patch = np.full(n, -1, dtype=np.int32)
+    near_any = np.zeros(n, dtype=bool)      # within r of some surface, inside its outline
+    agree = np.zeros(n, dtype=bool)         # ... and the normal agrees with one of them
+    first_n = np.zeros((n, 3))              # normal of the first such surface
+    corner = np.zeros(n, dtype=bool)        # near two non-parallel surfaces
+    members = []
+    use_normals = normals is not None and max_normal_angle is not None
+    if use_normals:
+        nrm = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+        cos_n = float(np.cos(max_normal_angle))
+    for j, pt in enumerate(patches):
+        if should_stop is not None and should_stop():
+            from ..errors import Cancelled
+
+            raise Cancelled("cancelled by the user")
+        d = np.abs(xyz @ pt.normal - pt.rho)
+        idx = np.flatnonzero(d <= search)
+        if len(idx):
+            idx = idx[points_inside(pt, pt.to2d(xyz[idx]))]
+        dj = d[idx]
+        near = idx[dj <= max_distance]
+        if use_normals:
+            ok = np.abs(nrm[idx] @ pt.normal) >= cos_n
+            if len(near):
+                seen = near_any[near]
+                corner[near[seen]] |= np.abs(first_n[near[seen]] @ pt.normal) < CORNER_COS
+                first_n[near[~seen]] = pt.normal
+                near_any[near] = True
+                agree[near[ok[dj <= max_distance]]] = True
+            idx, dj, near = idx[ok], dj[ok], near[ok[dj <= max_distance]]
+        members.append(near)
+        closer = dj < best[idx]
+        best[idx[closer]] = dj[closer]
+        best_patch[idx[closer]] = j
+    if use_normals:
+        on = agree | corner
+        return PatchSupport(on, best, best_patch, members)
+    on = best <= max_distance
+    return PatchSupport(on, best, best_patch, members)

@@ -1,0 +1,324 @@
+"""Planar patches: the surfaces that evaluation and change detection compare.
+
+A :class:`PlanarPatch` is one planar face of a model (a room face, a wall side, a mesh facet)
+with its plane ``nᵀp = ρ``, an orthonormal 2D frame on that plane and its outline as a
+shapely geometry in that frame. Every comparison of the evaluation (projection, buffer,
+Boolean union) and of the change detection (point-in-boundary, coverage) works in these
+frames, so the geometry is derived from a :class:`~engine.model.BuildingModel` once, here.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Iterable, Optional, Sequence
+
+import numpy as np
+
+from ..model import BuildingModel, ShapeType
+
+__all__ = [
+    "PlanarPatch",
+    "patches_from_model",
+    "merge_coplanar",
+    "plane_frame",
+    "project_to",
+    "overlap_on",
+    "points_inside",
+    "sample_patch_grid",
+    "polygon_triangles",
+]
+
+log = logging.getLogger(__name__)
+
+COPLANAR_COS = float(np.cos(np.radians(0.5)))
+"""Two faces of one shape are merged when their normals are within 0.5° ..."""
+COPLANAR_DIST = 1e-3
+"""... and their planes within 1 mm (metres)."""
+MIN_AREA = 1e-6
+"""Patches smaller than this (m²) are degenerate and dropped."""
+
+
+def plane_frame(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors ``u, v`` (each (3,) float64) spanning the plane with ``normal``.
+
+    For vertical planes ``u`` is horizontal and ``v`` points up; for horizontal planes
+    ``u`` is close to the x axis. ``(u, v, n)`` is right-handed.
+    """
+    n = np.asarray(normal, dtype=np.float64)
+    a = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    if abs(n[2]) < 0.9:
+        u = np.cross(a, n)
+    else:
+        u = a - n * (a @ n)
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    return u, v
+
+
+@dataclass(frozen=True, eq=False)
+class PlanarPatch:
+    """A planar surface with its own 2D frame.
+
+    Attributes
+    ----------
+    key : str
+        Unique id, ``"<shape_id>:<face>"`` (merged faces: the first face).
+    shape_id : str
+    face : int
+    kind : str
+        "wall", "floor" or "ceiling" (by the outward normal, as :meth:`BuildingModel.surfaces`).
+    storey : int
+    shape_type : ShapeType
+    normal : (3,) float64
+        Unit normal.
+    rho : float
+        Plane offset, ``nᵀp = ρ`` (metres).
+    origin : (3,) float64
+        A point on the plane, origin of the 2D frame (metres).
+    u, v : (3,) float64
+        Unit axes of the 2D frame.
+    geom : shapely Polygon or MultiPolygon
+        Outline in the 2D frame (metres).
+    name : str
+        Name of the shape it came from.
+    """
+
+    key: str
+    shape_id: str
+    face: int
+    kind: str
+    storey: int
+    shape_type: ShapeType
+    normal: np.ndarray
+    rho: float
+    origin: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    geom: object
+    name: str = ""
+
+    @property
+    def area(self) -> float:
+        """Area in m²."""
+        return float(self.geom.area)
+
+    def to2d(self, points: np.ndarray) -> np.ndarray:
+        """(n, 3) float64 points → (n, 2) float64 coordinates in this frame (metres)."""
+        d = np.asarray(points, dtype=np.float64) - self.origin
+        return np.column_stack([d @ self.u, d @ self.v])
+
+    def to3d(self, xy: np.ndarray) -> np.ndarray:
+        """(n, 2) float64 frame coordinates → (n, 3) float64 points on the plane."""
+        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        return self.origin + xy[:, :1] * self.u + xy[:, 1:] * self.v
+
+    def signed_distance(self, points: np.ndarray) -> np.ndarray:
+        """(n,) float64 signed distances ``nᵀp − ρ`` of (n, 3) points (metres)."""
+        return np.asarray(points, dtype=np.float64) @ self.normal - self.rho
+
+    def outline3d(self) -> list[np.ndarray]:
+        """The exterior rings in 3D: list of (k, 3) float64 (one per polygon part)."""
+        return [self.to3d(np.asarray(p.exterior.coords)[:-1]) for p in _parts(self.geom)]
+
+    def to_dict(self) -> dict:
+        return {"key": self.key, "shape_id": self.shape_id, "face": self.face, "name": self.name,
+                "kind": self.kind, "storey": self.storey, "area_m2": self.area,
+                "normal": [float(x) for x in self.normal], "rho_m": float(self.rho)}
+
+
+def _parts(geom) -> list:
+    if geom is None or geom.is_empty:
+        return []
+    if geom.geom_type == "Polygon":
+        return [geom]
+    return [g for g in getattr(geom, "geoms", []) if g.geom_type == "Polygon" and not g.is_empty]
+
+
+def _make_patch(key, shape, face, kind, polygon3d, normal) -> Optional[PlanarPatch]:
+    from shapely.geometry import Polygon
+
+    n = np.asarray(normal, dtype=np.float64)
+    if not np.isfinite(n).all() or np.linalg.norm(n) < 0.5:
+        return None
+    n = n / np.linalg.norm(n)
+    poly = np.asarray(polygon3d, dtype=np.float64)
+    origin = poly.mean(axis=0)
+    rho = float(n @ origin)
+    origin = origin - n * (n @ origin - rho)
+    u, v = plane_frame(n)
+    d = poly - origin
+    geom = Polygon(np.column_stack([d @ u, d @ v]))
+    if not geom.is_valid:
+        geom = geom.buffer(0)
+    if geom.area < MIN_AREA:
+        return None
+    return PlanarPatch(key, shape.id, int(face), kind, int(shape.storey), shape.type, n, rho, origin, u, v,
+                       geom, shape.name)
+
+
+def patches_from_model(model: BuildingModel, types: Iterable = (ShapeType.INTERIOR,), *,
+                       kinds: Optional[Sequence[str]] = None, merge: bool = True,
+                       active: Optional[bool] = True) -> list[PlanarPatch]:
+    """The planar patches of the shapes of ``types`` in ``model``.
+
+    Parameters
+    ----------
+    model : BuildingModel
+    types : shape types (default: interior spaces, i.e. the room faces).
+    kinds : keep only these kinds ("wall", "floor", "ceiling"); None keeps all.
+    merge : merge coplanar faces of one shape (triangulated meshes, IFC tessellations)
+        into one patch per connected planar region.
+    active : as :meth:`BuildingModel.surfaces`.
+
+    Returns
+    -------
+    list of PlanarPatch, in model order. Degenerate faces (area below ``MIN_AREA``) are dropped.
+    """
+    surfaces = model.surfaces(types=types, active=active)
+    out = []
+    for s in surfaces:
+        if kinds is not None and s.kind not in kinds:
+            continue
+        p = _make_patch(f"{s.shape_id}:{s.face}", model[s.shape_id], s.face, s.kind, s.polygon, s.normal)
+        if p is not None:
+            out.append(p)
+    if merge:
+        out = merge_coplanar(out)
+    return out
+
+
+def project_to(geom, src: PlanarPatch, dst: PlanarPatch):
+    """Orthogonal projection of a geometry in ``src``'s frame onto ``dst``'s plane/frame."""
+    from shapely import affinity
+
+    a = float(src.u @ dst.u)
+    b = float(src.v @ dst.u)
+    d = float(src.u @ dst.v)
+    e = float(src.v @ dst.v)
+    off = src.origin - dst.origin
+    return affinity.affine_transform(geom, [a, b, d, e, float(off @ dst.u), float(off @ dst.v)])
+
+
+def merge_coplanar(patches: Sequence[PlanarPatch]) -> list[PlanarPatch]:
+    """Merge coplanar patches of the same shape and kind whose outlines touch or overlap.
+
+    Returns one patch per connected planar region (the key of the first member).
+    """
+    from shapely import unary_union
+
+    groups: dict = {}
+    for p in patches:
+        groups.setdefault((p.shape_id, p.kind), []).append(p)
+    out = []
+    for (_, _), members in groups.items():
+        if len(members) == 1:
+            out.extend(members)
+            continue
+        used = [False] * len(members)
+        for i, p in enumerate(members):
+            if used[i]:
+                continue
+            used[i] = True
+            same = [p]
+            for j in range(i + 1, len(members)):
+                q = members[j]
+                if not used[j] and p.normal @ q.normal >= COPLANAR_COS and abs(q.rho - p.rho) <= COPLANAR_DIST:
+                    used[j] = True
+                    same.append(q)
+            if len(same) == 1:
+                out.append(p)
+                continue
+            geom = unary_union([p.geom] + [project_to(q.geom, q, p) for q in same[1:]]).buffer(0)
+            for k, part in enumerate(_parts(geom)):
+                key = p.key if k == 0 else f"{p.key}.{k}"
+                out.append(PlanarPatch(key, p.shape_id, p.face, p.kind, p.storey, p.shape_type, p.normal, p.rho,
+                                       p.origin, p.u, p.v, part, p.name))
+    return out
+
+
+def _strip(patch: PlanarPatch, other: PlanarPatch, b: float):
+    """The part of ``patch`` (its frame) within distance ``b`` of ``other``'s plane."""
+    from shapely.geometry import Polygon
+
+    g = np.array([other.normal @ patch.u, other.normal @ patch.v])
+    c = float(other.normal @ patch.origin - other.rho)
+    gn = float(np.linalg.norm(g))
+    if gn < 1e-12:
+        return patch.geom if abs(c) <= b else None
+    minx, miny, maxx, maxy = patch.geom.bounds
+    big = 2.0 * (abs(minx) + abs(maxx) + abs(miny) + abs(maxy)) + abs(c) / gn + 1.0
+    gh = g / gn
+    perp = np.array([-gh[1], gh[0]])
+    centre = -c / gn * gh  # the points where the distance is 0
+    half = b / gn
+    corners = [centre + s * half * gh + t * big * perp for s, t in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    inter = patch.geom.intersection(Polygon(corners))
+    return None if inter.is_empty else inter
+
+
+def overlap_on(target: PlanarPatch, other: PlanarPatch, b: float):
+    """``target ∩ 𝒫_target(other ∩ buffer_b(target))`` in ``target``'s frame (or None).
+
+    The part of ``other`` lying within distance ``b`` (metres) of ``target``'s plane is
+    projected orthogonally onto ``target``'s plane and clipped by ``target``'s outline.
+    Parallelism is the caller's business.
+    """
+    part = _strip(other, target, b)
+    if part is None:
+        return None
+    proj = project_to(part, other, target)
+    inter = proj.intersection(target.geom)
+    return None if inter.is_empty or inter.area <= 0 else inter
+
+
+def points_inside(patch: PlanarPatch, xy: np.ndarray) -> np.ndarray:
+    """(n,) bool — which (n, 2) frame coordinates fall inside the patch outline."""
+    import shapely
+
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(xy) == 0:
+        return np.zeros(0, dtype=bool)
+    shapely.prepare(patch.geom)
+    return np.asarray(shapely.contains_xy(patch.geom, xy[:, 0], xy[:, 1]), dtype=bool)
+
+
+def sample_patch_grid(patch: PlanarPatch, spacing: float) -> np.ndarray:
+    """Points on a regular grid (cell centres, ``spacing`` metres) inside the patch.
+
+    Returns (n, 2) float64 frame coordinates; a patch narrower than a cell gets its
+    representative point so that no patch goes unsampled.
+    """
+    minx, miny, maxx, maxy = patch.geom.bounds
+    xs = np.arange(minx + spacing / 2, maxx, spacing)
+    ys = np.arange(miny + spacing / 2, maxy, spacing)
+    if len(xs) and len(ys):
+        gx, gy = np.meshgrid(xs, ys)
+        xy = np.column_stack([gx.ravel(), gy.ravel()])
+        xy = xy[points_inside(patch, xy)]
+        if len(xy):
+            return xy
+    rp = patch.geom.representative_point()
+    return np.array([[rp.x, rp.y]])
+
+
+def polygon_triangles(patch: PlanarPatch) -> tuple[np.ndarray, np.ndarray]:
+    """Triangulate the patch: ``(vertices (n, 3) float64, triangles (m, 3) int64)``."""
+    import shapely
+
+    tris = shapely.constrained_delaunay_triangles(patch.geom)
+    verts, faces = [], []
+    for t in getattr(tris, "geoms", []):
+        c = np.asarray(t.exterior.coords)[:3]
+        k = len(verts) // 1
+        verts.extend(c.tolist())
+        faces.append((k, k + 1, k + 2))
+    if not verts:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+    v3 = patch.to3d(np.asarray(verts))
+    f = np.asarray(faces, dtype=np.int64)
+    # keep the patch normal's orientation
+    e1 = v3[f[:, 1]] - v3[f[:, 0]]
+    e2 = v3[f[:, 2]] - v3[f[:, 0]]
+    flip = np.cross(e1, e2) @ patch.normal < 0
+    f[flip] = f[flip][:, ::-1]
+    return v3, f
