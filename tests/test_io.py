@@ -447,3 +447,37 @@ def test_e57_two_scans_with_poses(tmp_path):
 
 def test_supported_extensions():
     assert set(SUPPORTED_EXTENSIONS) == {".ply", ".pcd", ".xyz", ".pts", ".txt", ".csv", ".las", ".laz", ".e57"}
+
+
+def test_pcd_count_field_padding_and_uint_rgb(tmp_path):
+    n = 25
+    rng = np.random.default_rng(13)
+    xyz = rng.uniform(-2, 2, (n, 3)).astype("<f4")
+    hist = rng.random((n, 4)).astype("<f4")
+    rgb = rng.integers(0, 1 << 24, n).astype("<u4")
+    rec = np.empty(n, [("xyz", "<f4", (3,)), ("_", "u1", (4,)), ("rgb", "<u4"), ("h", "<f4", (4,))])
+    rec["xyz"], rec["_"], rec["rgb"], rec["h"] = xyz, 0, rgb, hist
+    head = ("VERSION 0.7\nFIELDS x y z _ rgb h\nSIZE 4 4 4 1 4 4\nTYPE F F F U U F\nCOUNT 1 1 1 4 1 4\n"
+            f"WIDTH {n}\nHEIGHT 1\nPOINTS {n}\nDATA binary\n")
+    p = tmp_path / "c.pcd"
+    p.write_bytes(head.encode() + rec.tobytes())
+    c = read_point_cloud(p)
+    np.testing.assert_array_equal(c.xyz, xyz.astype(np.float64))
+    np.testing.assert_array_equal(c.colors, np.stack([(rgb >> 16) & 255, (rgb >> 8) & 255, rgb & 255], 1))
+    np.testing.assert_array_equal(c.fields["h"], hist)
+    assert sorted(c.fields) == ["h"]
+
+
+def test_las_with_8bit_values_in_16bit_colour_is_kept(tmp_path):
+    laspy = pytest.importorskip("laspy")
+    las = laspy.LasData(laspy.LasHeader(point_format=2, version="1.2"))
+    n = 50
+    las.x, las.y, las.z = np.arange(n) * 0.1, np.zeros(n), np.zeros(n)
+    las.red = np.arange(n) * 5
+    las.green = np.full(n, 255)
+    las.blue = np.zeros(n)
+    path = tmp_path / "c8.las"
+    las.write(str(path))
+    c = read_point_cloud(path)
+    np.testing.assert_array_equal(c.colors[:, 0], np.arange(n) * 5)
+    np.testing.assert_array_equal(c.colors[:, 1], 255)

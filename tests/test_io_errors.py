@@ -230,3 +230,15 @@ def test_every_error_is_an_indoor_error(tmp_path):
         with pytest.raises(IndoorError) as info:
             read_point_cloud(p)
         assert str(p) in str(info.value)
+
+
+def test_laz_without_backend_names_the_package(tmp_path, monkeypatch):
+    laspy = pytest.importorskip("laspy")
+    from engine.errors import MissingDependencyError
+
+    p = tmp_path / "s.laz"
+    p.write_bytes(b"LASF" + bytes(400))
+    monkeypatch.setattr(laspy.LazBackend, "detect_available", staticmethod(lambda: ()))
+    with pytest.raises(MissingDependencyError) as info:
+        read_point_cloud(p)
+    assert "lazrs" in str(info.value) and str(p) in str(info.value)

@@ -27,6 +27,14 @@ def _laspy():
     return laspy
 
 
+def _las_error(e: Exception, path: str, what: str) -> Exception:
+    """laspy's error as ours: a missing LAZ backend is a missing dependency."""
+    msg = str(e).lower()
+    if "lazback" in msg or "backend" in msg or "is not available" in msg:
+        return MissingDependencyError("lazrs", f"reading the LAZ file {path}")
+    return FormatError(f"{what} ({e})", path)
+
+
 def read_las(path, *, progress=None, should_stop=None, params: Optional[ReadParams] = None) -> PointCloud:
     """Read a LAS or LAZ file in chunks of ``params.chunk_points`` points.
 
@@ -56,11 +64,13 @@ def read_las(path, *, progress=None, should_stop=None, params: Optional[ReadPara
     path = check_file(path)
     laspy = _laspy()
     p = Progress.wrap(progress, should_stop)
+    if path.lower().endswith(".laz") and not laspy.LazBackend.detect_available():
+        raise MissingDependencyError("lazrs", f"reading the LAZ file {path}")
     try:
         reader = laspy.open(path)
     except laspy.errors.LaspyException as e:
-        raise FormatError(f"not a readable LAS/LAZ file ({e})", path) from None
-    except (OSError, ValueError) as e:
+        raise _las_error(e, path, "not a readable LAS/LAZ file") from None
+    except (OSError, ValueError, EOFError) as e:
         raise FormatError(f"not a readable LAS/LAZ file ({e})", path) from None
     with reader:
         hdr = reader.header
@@ -98,10 +108,7 @@ def read_las(path, *, progress=None, should_stop=None, params: Optional[ReadPara
                 got += m
                 p(got / max(n, 1), "reading LAS")
         except laspy.errors.LaspyException as e:
-            msg = str(e)
-            if "backend" in msg.lower() or "laz" in msg.lower() and "support" in msg.lower():
-                raise MissingDependencyError("lazrs", "reading LAZ files") from None
-            raise FormatError(f"corrupt LAS/LAZ data ({msg})", path) from None
+            raise _las_error(e, path, "corrupt LAS/LAZ data") from None
         except (ValueError, OSError, EOFError, RuntimeError) as e:
             raise FormatError(f"corrupt or truncated LAS/LAZ data ({e})", path) from None
     if got < n:
