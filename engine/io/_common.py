@@ -156,7 +156,10 @@ def finish_cloud(
     n_total = len(xyz)
     if n_total == 0:
         raise EmptyCloudError("the file holds no points", path)
-    if np.isfinite(xyz).all():  # the common case, without a per-row mask
+    # min/max propagate NaN and show inf: finite extremes mean every coordinate is finite
+    lo = np.array([xyz[:, k].min() for k in range(3)])  # per column: numpy's axis-0
+    hi = np.array([xyz[:, k].max() for k in range(3)])  # reduction of (n, 3) is slower
+    if np.isfinite(lo).all() and np.isfinite(hi).all():  # the common case, no row mask
         n_ok, dropped = n_total, 0
     else:
         finite = np.isfinite(xyz[:, 0]) & np.isfinite(xyz[:, 1]) & np.isfinite(xyz[:, 2])
@@ -176,9 +179,9 @@ def finish_cloud(
     if n_ok < MIN_POINTS:
         raise EmptyCloudError(f"only {n_ok} usable points; at least {MIN_POINTS} are needed", path)
 
-    # per column: numpy's axis-0 reduction of an (n, 3) array is several times slower
-    lo = np.array([xyz[:, k].min() for k in range(3)])
-    hi = np.array([xyz[:, k].max() for k in range(3)])
+    if dropped:
+        lo = np.array([xyz[:, k].min() for k in range(3)])
+        hi = np.array([xyz[:, k].max() for k in range(3)])
     base = np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64).reshape(3)
     extra = np.zeros(3)
     big = np.maximum(np.abs(lo), np.abs(hi)) > params.offset_threshold_m
