@@ -1,0 +1,403 @@
+"""Preset synthetic buildings with their simulated scans and true models.
+
+Each preset is a floor plan (furnished with seeded clutter), scanned with the terrestrial
+(σ = 5 mm) or the mobile (σ = 2 cm) simulator, plus its true :class:`BuildingModel` and,
+for some, model variants:
+
+* ``office_mw`` — seven rooms on a long corridor (Manhattan);
+* ``two_storey_office`` — two storeys of offices on a corridor;
+* ``house_multi_height`` — four rooms with different ceiling heights;
+* ``unscanned_room`` — a corridor with four rooms, one never scanned (its door closed);
+* ``syn_house`` — non-Manhattan: a common room, three private rooms and an open space;
+* ``hexagon_hall`` — a hexagonal hall with four small side rooms;
+* ``eval_demo`` — SPEC.md §4: a 6 m × 9 m × 2.5 m room plus a corridor; variants
+  ``inacc`` (outer walls 5 cm outwards), ``incomp`` (the corridor missing), ``incorr``
+  (an extra room);
+* ``change_demo`` — SPEC.md §5: ``truth`` is the old model, the cloud scans the changed
+  building (two new walls around a storage room, one wall removed between two offices);
+  ``cloud.fields["new"]`` is 1 on the new walls; ``variants["changed"]`` is the changed
+  building's truth; the removed wall has ``attributes["removed_in_scan"] = True``.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Mapping, Optional, Union
+
+import numpy as np
+from shapely.geometry import Polygon, box
+from shapely.ops import unary_union
+
+from ..errors import InputError
+from ..model import BuildingModel
+from ..pointcloud import PointCloud
+from ..progress import Progress
+from .furnish import FurnishParams, furnish
+from .plan import (
+    _MITRE,
+    Door,
+    FloorPlan,
+    PlanStorey,
+    Room,
+    build_truth,
+    plan_geometry,
+    rooms_from_partition,
+)
+from .scan import ScanParams, simulate_scan
+
+__all__ = ["SyntheticScene", "PRESETS", "NOISE_SIGMA", "DEFAULT_POINTS", "preset", "preset_plans",
+           "scan_params_for"]
+
+NOISE_SIGMA = {"tls": 0.005, "mobile": 0.02}
+"""Range noise σ of the two scanner kinds, metres."""
+MOBILE_MAX_RANGE = 20.0
+"""Maximum range of the mobile scanner, metres."""
+DEFAULT_POINTS = 1_000_000
+"""Default number of points of a preset scan."""
+
+
+@dataclass(frozen=True, eq=False)
+class SyntheticScene:
+    """A synthetic building: its scan, its true model and the plan behind both.
+
+    Attributes
+    ----------
+    name : str
+        Preset name.
+    seed : int
+    noise_sigma : float
+        Range noise σ of the scan, metres.
+    cloud : PointCloud
+        The simulated scan; ``fields["label"]`` int32 per point (LABEL_WALL 0,
+        LABEL_FLOOR 1, LABEL_CEILING 2, LABEL_CLUTTER 3); change_demo adds
+        ``fields["new"]``.
+    truth : BuildingModel
+        The true model (for change_demo: the old building).
+    plan : FloorPlan
+        The furnished floor plan that was scanned.
+    variants : dict of str -> BuildingModel
+    scan_params : ScanParams
+    timings : dict of str -> float
+        Seconds spent on the plan, the truth and the scan.
+    """
+
+    name: str
+    seed: int
+    noise_sigma: float
+    cloud: PointCloud
+    truth: BuildingModel
+    plan: FloorPlan
+    variants: Mapping[str, BuildingModel] = field(default_factory=dict)
+    scan_params: Optional[ScanParams] = None
+    timings: Mapping[str, float] = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------- plans
+def _rect(x0, y0, x1, y1):
+    return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+
+
+def _office_mw():
+    t = 0.15
+    cells = [("Corridor", _rect(0, 0, 18, 2), {"furnished": False})]
+    for k in range(4):
+        cells.append((f"Room {k + 1}", _rect(4.5 * k, 2, 4.5 * (k + 1), 7)))
+    for k in range(3):
+        cells.append((f"Room {k + 5}", _rect(6 * k, -5.5, 6 * (k + 1), 0)))
+    rooms = rooms_from_partition(cells, t)
+    pos = [0.3, 0.5, 0.7, 0.4, 0.6, 0.3, 0.8]
+    doors = [Door((f"Room {k + 1}", "Corridor"), pos[k]) for k in range(7)]
+    doors.append(Door(("Room 1", "Room 2"), 0.7))
+    return FloorPlan("office_mw", (PlanStorey(0.0, 3.0, "Ground floor"),), tuple(rooms), tuple(doors),
+                     interior_thickness=t, exterior_thickness=0.3)
+
+
+def _two_storey_office():
+    t = 0.2
+    rooms, doors = [], []
+    splits = {0: ([0, 5, 10, 14], [0, 4.5, 9.5, 14]), 1: ([0, 4, 9, 14], [0, 5, 10, 14])}
+    for s, (north, south) in splits.items():
+        cells = [(f"Corridor {s}", _rect(0, 0, 14, 2), {"furnished": False, "storey": s})]
+        names = []
+        for k in range(3):
+            cells.append((f"Room {s}.{k + 1}", _rect(north[k], 2, north[k + 1], 7), {"storey": s}))
+            cells.append((f"Room {s}.{k + 4}", _rect(south[k], -5, south[k + 1], 0), {"storey": s}))
+            names += [f"Room {s}.{k + 1}", f"Room {s}.{k + 4}"]
+        rooms += rooms_from_partition(cells, t)
+        doors += [Door((n, f"Corridor {s}"), 0.25 + 0.5 * (i % 2)) for i, n in enumerate(names)]
+    storeys = (PlanStorey(0.0, 2.8, "Ground floor"), PlanStorey(3.1, 2.8, "First floor"))
+    return FloorPlan("two_storey_office", storeys, tuple(rooms), tuple(doors), interior_thickness=t,
+                     exterior_thickness=0.3, slab_thickness=0.3)
+
+
+def _house_multi_height():
+    t = 0.12
+    cells = [
+        ("Living room", _rect(0, 0, 5, 4), {"ceiling_height": 2.8}),
+        ("Kitchen", _rect(5, 0, 9, 4), {"ceiling_height": 2.4}),
+        ("Bedroom", _rect(0, 4, 5, 9), {"ceiling_height": 2.6}),
+        ("Studio", _rect(5, 4, 9, 9), {"ceiling_height": 3.2}),
+    ]
+    rooms = rooms_from_partition(cells, t)
+    doors = [Door(("Living room", "Kitchen"), 0.5), Door(("Living room", "Bedroom"), 0.7),
+             Door(("Studio", "Kitchen"), 0.4)]
+    return FloorPlan("house_multi_height", (PlanStorey(0.0, 3.2, "Ground floor"),), tuple(rooms),
+                     tuple(doors), interior_thickness=t, exterior_thickness=0.3)
+
+
+def _unscanned_room():
+    t = 0.15
+    cells = [("Corridor", _rect(0, 0, 10, 2), {"furnished": False}),
+             ("Room 1", _rect(0, 2, 5, 7)), ("Room 2", _rect(5, 2, 10, 7)),
+             ("Room 3", _rect(0, -5, 5, 0), {"scanned": False}), ("Room 4", _rect(5, -5, 10, 0))]
+    rooms = rooms_from_partition(cells, t)
+    doors = [Door(("Room 1", "Corridor"), 0.5), Door(("Room 2", "Corridor"), 0.4),
+             Door(("Room 3", "Corridor"), 0.5, open=False), Door(("Room 4", "Corridor"), 0.6)]
+    return FloorPlan("unscanned_room", (PlanStorey(0.0, 2.8, "Ground floor"),), tuple(rooms), tuple(doors),
+                     interior_thickness=t, exterior_thickness=0.3)
+
+
+def _syn_house():
+    t = 0.15
+
+    def xs(y):  # the slanted wall between the west and the east part
+        return 6.0 + 0.15 * y
+
+    def yd(x):  # the slanted wall between the private rooms
+        return 4.0 + (x - 6.6) / 8.4
+
+    cells = [
+        ("Common room", [(0, 0), (6, 0), (xs(4), 4), (0, 4)]),
+        ("Open space", [(0, 4), (xs(4), 4), (xs(10), 10), (0, 10)], {"ceiling_height": 3.2}),
+        ("Private room 1", [(6, 0), (10.5, 0), (10.5, yd(10.5)), (xs(4), 4)]),
+        ("Private room 2", [(10.5, 0), (15, 0), (15, 5), (10.5, yd(10.5))]),
+        ("Private room 3", [(xs(4), 4), (15, 5), (11, 10), (xs(10), 10)]),
+    ]
+    rooms = rooms_from_partition(cells, t)
+    doors = [Door(("Common room", "Open space"), 0.6), Door(("Common room", "Private room 1"), 0.5),
+             Door(("Open space", "Private room 3"), 0.5), Door(("Private room 1", "Private room 2"), 0.4)]
+    return FloorPlan("syn_house", (PlanStorey(0.0, 2.7, "Ground floor"),), tuple(rooms), tuple(doors),
+                     interior_thickness=t, exterior_thickness=0.3)
+
+
+def _hexagon_hall():
+    t = 0.2
+    r = 6.0
+    hexagon = [(r * math.cos(k * math.pi / 3), r * math.sin(k * math.pi / 3)) for k in range(6)]
+    cells = [("Hall", hexagon, {"ceiling_height": 4.0, "furnished": False})]
+    doors = []
+    width, depth = 4.0, 3.0
+    for n, e in enumerate((0, 1, 3, 4)):
+        p, q = np.asarray(hexagon[e]), np.asarray(hexagon[(e + 1) % 6])
+        d = (q - p) / np.linalg.norm(q - p)
+        out = np.array([d[1], -d[0]])  # outward of the CCW hexagon
+        a = p + d * (r - width) / 2
+        b = a + d * width
+        cells.append((f"Side room {n + 1}", [tuple(b), tuple(a), tuple(a + out * depth), tuple(b + out * depth)],
+                      {"ceiling_height": 2.6}))
+        doors.append(Door(("Hall", f"Side room {n + 1}"), 0.5, width=1.0))
+    rooms = rooms_from_partition(cells, t)
+    return FloorPlan("hexagon_hall", (PlanStorey(0.0, 4.0, "Ground floor"),), tuple(rooms), tuple(doors),
+                     interior_thickness=t, exterior_thickness=0.3)
+
+
+_EVAL_T = 0.2
+"""Interior wall thickness of eval_demo, metres."""
+
+
+def _eval_demo_plan(extra_room=False, without_corridor=False, grow=0.0):
+    t = _EVAL_T
+    rooms = [Room("Room 1", _rect(0, 0, 6, 9), furnished=True)]
+    doors = []
+    if not without_corridor:
+        rooms.append(Room("Corridor", _rect(6 + t, -1.5, 8 + t, 10.5), furnished=False))
+        doors.append(Door(("Room 1", "Corridor"), 0.5))
+    if extra_room:
+        rooms.append(Room("Room 2", _rect(-t - 5, 1.5, -t, 7.5)))
+        doors.append(Door(("Room 1", "Room 2"), 0.5))
+    if grow:
+        rooms = _grow_outer(rooms, grow, t)
+    return FloorPlan("eval_demo", (PlanStorey(0.0, 2.5, "Ground floor"),), tuple(rooms), tuple(doors),
+                     interior_thickness=t, exterior_thickness=0.3)
+
+
+def _grow_outer(rooms, d, t):
+    """Move every room face that faces the outside ``d`` metres outwards."""
+    polys = [r.shape for r in rooms]
+    out = []
+    for i, r in enumerate(rooms):
+        others = [p.buffer(t, **_MITRE) for j, p in enumerate(polys) if j != i]
+        grown = polys[i].buffer(d, **_MITRE)
+        if others:
+            grown = grown.difference(unary_union(others))
+        grown = grown.simplify(1e-6)
+        out.append(Room(r.name, tuple(grown.exterior.coords), r.storey, r.ceiling_height, r.scanned, r.furnished))
+    return out
+
+
+def _change_demo_plans():
+    t = 0.15
+    x1 = 0.075 + 0.5 * 3.85  # centre of old Room 1 (clear span 0.075 .. 3.925)
+    x2 = 4.075 + 0.5 * 3.85
+    old_cells = [("Corridor", _rect(0, 0, 16, 2), {"furnished": False})]
+    old_cells += [(f"Room {k + 1}", _rect(4 * k, 2, 4 * (k + 1), 7)) for k in range(4)]
+    old = FloorPlan("change_demo", (PlanStorey(0.0, 2.8, "Ground floor"),),
+                    tuple(rooms_from_partition(old_cells, t)),
+                    tuple(Door((f"Room {k + 1}", "Corridor"), 0.5) for k in range(4)),
+                    interior_thickness=t, exterior_thickness=0.3)
+    new_cells = [("Corridor", _rect(0, 0, 16, 2), {"furnished": False}),
+                 ("Room 1", _rect(0, 2, 8, 7)),
+                 ("Room 3", _rect(8, 2, 12, 7)),
+                 ("Room 4", [(12, 2), (16, 2), (16, 4.5), (14, 4.5), (14, 7), (12, 7)]),
+                 ("Storage", _rect(14, 4.5, 16, 7), {"furnished": False})]
+    span = (0.075, 7.925)
+    new = FloorPlan("change_demo_changed", old.storeys, tuple(rooms_from_partition(new_cells, t)),
+                    (Door(("Room 1", "Corridor"), (x1 - span[0]) / (span[1] - span[0])),
+                     Door(("Room 1", "Corridor"), (x2 - span[0]) / (span[1] - span[0])),
+                     Door(("Room 3", "Corridor"), 0.5), Door(("Room 4", "Corridor"), 0.5),
+                     Door(("Room 4", "Storage"), 0.5)),
+                    interior_thickness=t, exterior_thickness=0.3)
+    return old, new
+
+
+_PLANS: dict[str, Callable[[], FloorPlan]] = {
+    "office_mw": _office_mw,
+    "two_storey_office": _two_storey_office,
+    "house_multi_height": _house_multi_height,
+    "unscanned_room": _unscanned_room,
+    "syn_house": _syn_house,
+    "hexagon_hall": _hexagon_hall,
+    "eval_demo": _eval_demo_plan,
+    "change_demo": lambda: _change_demo_plans()[0],
+}
+
+PRESETS = tuple(_PLANS)
+"""Names of the presets :func:`preset` knows."""
+
+
+def preset_plans(name: str) -> dict[str, FloorPlan]:
+    """The unfurnished floor plans of a preset: ``"truth"``, ``"scanned"`` and variants."""
+    if name not in _PLANS:
+        raise InputError(f"unknown synthetic preset {name!r}; choose one of {', '.join(PRESETS)}")
+    if name == "eval_demo":
+        return {"truth": _eval_demo_plan(), "inacc": _eval_demo_plan(grow=0.05),
+                "incomp": _eval_demo_plan(without_corridor=True), "incorr": _eval_demo_plan(extra_room=True)}
+    if name == "change_demo":
+        old, new = _change_demo_plans()
+        return {"truth": old, "changed": new}
+    return {"truth": _PLANS[name]()}
+
+
+def scan_params_for(noise: Union[str, float], target_points: Optional[int]) -> ScanParams:
+    """Scanner settings for a noise name ("tls", "mobile") or a σ in metres (terrestrial)."""
+    if isinstance(noise, str):
+        key = noise.strip().lower()
+        if key in NOISE_SIGMA:
+            if key == "mobile":
+                return ScanParams(mode="mobile", sigma=NOISE_SIGMA[key], max_range=MOBILE_MAX_RANGE,
+                                  target_points=target_points)
+            return ScanParams(mode="tls", sigma=NOISE_SIGMA[key], target_points=target_points)
+        try:
+            noise = float(key)
+        except ValueError:
+            raise InputError(f"noise must be 'tls', 'mobile' or a σ in metres, not {noise!r}") from None
+    sigma = float(noise)
+    if not math.isfinite(sigma) or sigma < 0 or sigma > 0.5:
+        raise InputError(f"noise σ must be between 0 and 0.5 m, not {sigma!r}")
+    return ScanParams(mode="tls", sigma=sigma, target_points=target_points)
+
+
+def _changed_walls(model_a: BuildingModel, model_b: BuildingModel, share: float = 0.5) -> list[str]:
+    """Ids of walls of ``model_a`` whose footprint is mostly not covered by ``model_b``'s walls."""
+    cover = unary_union([Polygon(w.footprint()) for w in model_b.walls])
+    out = []
+    for w in model_a.walls:
+        fp = Polygon(w.footprint())
+        if fp.intersection(cover).area < share * fp.area:
+            out.append(w.id)
+    return out
+
+
+def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
+           target_points: Optional[int] = None, scale: float = 1.0, clutter: bool = True,
+           furnish_params: FurnishParams = FurnishParams(), progress=None,
+           should_stop=None) -> SyntheticScene:
+    """Build a preset synthetic scene (plan, true model, variants, simulated scan).
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`PRESETS`.
+    seed : int
+        Seeds the clutter placement, the scan's azimuth offsets and its noise.
+    noise : "tls", "mobile" or float
+        Terrestrial scans with σ = 5 mm, a mobile walk with σ = 2 cm, or terrestrial scans
+        with the given σ in metres.
+    target_points : int, optional
+        About how many points the scan has (default ``DEFAULT_POINTS * scale``).
+    scale : float
+        Multiplies the default point count when ``target_points`` is not given.
+    clutter : bool
+        Furnish the rooms (shelves, cabinets, tables) or leave them empty.
+    progress, should_stop : callbacks (see :class:`engine.progress.Progress`)
+
+    Returns
+    -------
+    SyntheticScene
+
+    Raises
+    ------
+    InputError
+        Unknown preset name or bad noise value.
+    """
+    prog = Progress.wrap(progress, should_stop)
+    plans = preset_plans(name)
+    target = int(target_points) if target_points is not None else int(round(DEFAULT_POINTS * scale))
+    if target <= 0:
+        raise InputError(f"target_points must be positive, not {target}")
+    params = scan_params_for(noise, target)
+    ss = np.random.SeedSequence(int(seed))
+    rng_furnish, rng_scan = (np.random.default_rng(s) for s in ss.spawn(2))
+    timings = {}
+    t0 = time.perf_counter()
+    scanned_key = "changed" if name == "change_demo" else "truth"
+    scanned = plans[scanned_key]
+    if clutter:
+        scanned = furnish(scanned, rng_furnish, furnish_params)
+    geom = plan_geometry(scanned)
+    prog(0.05, "true model")
+    truth = build_truth(plans["truth"]) if scanned_key != "truth" else build_truth(scanned, geom)
+    variants = {k: build_truth(p) for k, p in plans.items() if k not in ("truth",) and k != scanned_key}
+    extra_fields = {}
+    timings["truth_s"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    result = simulate_scan(scanned, params, geometry=geom, rng=rng_scan, progress=prog.sub(0.1, 1.0))
+    timings["scan_s"] = time.perf_counter() - t0
+    cloud = result.cloud
+    if name == "change_demo":
+        changed = build_truth(scanned, geom)
+        variants["changed"] = changed
+        new_ids = _changed_walls(changed, truth)
+        removed = _changed_walls(truth, changed)
+        new_idx = [int(i.split("_")[1]) for i in new_ids]
+        extra_fields["new"] = np.isin(result.wall_index, new_idx).astype(np.int32)
+        upd = []
+        for wid in removed:
+            w = truth[wid]
+            upd.append(w.with_(attributes={**w.attributes, "removed_in_scan": True}))
+            for c in w.children:
+                d = truth[c]
+                upd.append(d.with_(attributes={**d.attributes, "removed_in_scan": True}))
+        for wid in new_ids:
+            w = changed[wid]
+            upd_c = w.with_(attributes={**w.attributes, "new_in_scan": True})
+            changed = changed.replace_shapes(upd_c)
+        variants["changed"] = changed
+        truth = truth.replace_shapes(*upd)
+    if extra_fields:
+        cloud = cloud.with_(fields={**cloud.fields, **extra_fields})
+    cloud = cloud.with_(source=f"synthetic:{name}:seed={seed}")
+    prog(1.0, "done")
+    return SyntheticScene(name=name, seed=int(seed), noise_sigma=params.sigma, cloud=cloud, truth=truth,
+                          plan=scanned, variants=variants, scan_params=params, timings=timings)

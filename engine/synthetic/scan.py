@@ -1,0 +1,540 @@
+"""Scan simulation: ray casting against the true geometry of a floor plan.
+
+The scene is a triangle mesh of every surface a scanner inside the building can see: the
+floor, ceiling and wall faces of each room (with open door openings cut out, plus the
+jambs, head and threshold of each opening), and the clutter boxes. Rays leave each scanner
+position on a regular spherical grid (azimuth × elevation, one angular step), so the point
+density falls off with range as in a real scan. The range gets Gaussian noise of σ along
+the ray. Each point carries the label of the surface it hit (wall, floor, ceiling,
+clutter).
+
+Terrestrial mode: one or more positions per scanned room (more for big or long rooms),
+away from walls and furniture. Mobile mode: positions every ``path_step`` along a walk
+through every scanned room and the doors between them.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Point
+from shapely.ops import unary_union
+
+from ..errors import InputError
+from ..pointcloud import PointCloud
+from ..progress import Progress
+from .plan import FloorPlan, PlanGeometry, _edge_frame, _polygons, plan_geometry
+
+__all__ = [
+    "LABEL_WALL",
+    "LABEL_FLOOR",
+    "LABEL_CEILING",
+    "LABEL_CLUTTER",
+    "LABEL_NAMES",
+    "ScanParams",
+    "SceneMesh",
+    "ScanResult",
+    "build_scene_mesh",
+    "scanner_positions",
+    "simulate_scan",
+]
+
+log = logging.getLogger(__name__)
+
+LABEL_WALL = 0
+"""Truth label of points on walls (door jambs and heads included)."""
+LABEL_FLOOR = 1
+"""Truth label of points on floors (door thresholds included)."""
+LABEL_CEILING = 2
+"""Truth label of points on ceilings."""
+LABEL_CLUTTER = 3
+"""Truth label of points on furniture."""
+LABEL_NAMES = ("wall", "floor", "ceiling", "clutter")
+"""Name of each label value."""
+
+
+@dataclass(frozen=True)
+class ScanParams:
+    """How the simulated scanner works (SI units, radians)."""
+
+    mode: str = "tls"
+    """"tls": static positions per room; "mobile": positions along a walk through the doors."""
+    sigma: float = 0.005
+    """Standard deviation of the range noise along each ray, metres."""
+    angular_step: float = math.radians(0.2)
+    """Angle between neighbouring rays in azimuth and elevation, radians (ignored when
+    ``target_points`` is set)."""
+    target_points: Optional[int] = None
+    """When set, the angular step is chosen so that the scan has about this many points."""
+    min_elevation: float = math.radians(-60.0)
+    """Lowest ray elevation (the tripod or the operator hides what is below), radians."""
+    max_elevation: float = math.radians(90.0)
+    """Highest ray elevation, radians."""
+    min_range: float = 0.3
+    """Returns closer than this are dropped, metres."""
+    max_range: float = 30.0
+    """Returns farther than this are dropped, metres."""
+    scanner_height: float = 1.5
+    """Height of the scanner centre above the floor, metres."""
+    area_per_scan: float = 30.0
+    """A terrestrial scan per this much floor area (m²), at least one per room."""
+    max_scan_spacing: float = 7.0
+    """Along a long room, at most this far between terrestrial positions, metres."""
+    wall_clearance: float = 0.6
+    """Scanner positions keep this far from walls, metres."""
+    clutter_clearance: float = 0.4
+    """Scanner positions keep this far from furniture, metres."""
+    position_grid: float = 0.2
+    """Spacing of the candidate grid scanner positions are chosen from, metres."""
+    path_step: float = 0.5
+    """Mobile mode: distance between successive positions along the walk, metres."""
+    door_approach: float = 0.6
+    """Mobile mode: the walk passes this far in front of each door, metres."""
+    pilot_rays: int = 60_000
+    """Rays of the pilot scan that measures the hit rate for ``target_points``."""
+    batch_rays: int = 1_000_000
+    """Rays cast per call to the ray caster (bounds the memory)."""
+
+
+@dataclass(frozen=True)
+class SceneMesh:
+    """Triangle mesh of the visible surfaces.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float64, metres
+    triangles : (m, 3) int32
+    labels : (m,) int32 — LABEL_* of each triangle
+    wall_index : (m,) int32 — index of the wall piece (``PlanGeometry.walls``) a wall
+        triangle lies on, -1 for other triangles
+    room_index : (m,) int32 — index of the room (``FloorPlan.rooms``) whose face it is,
+        -1 for door reveals and clutter
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    labels: np.ndarray
+    wall_index: np.ndarray
+    room_index: np.ndarray
+
+
+@dataclass(frozen=True)
+class ScanResult:
+    """A simulated scan with per-point provenance.
+
+    ``cloud`` : the points, ``fields["label"]`` int32 per point.
+    ``wall_index`` : (n,) int32 — wall piece hit (-1 when not a wall).
+    ``room_index`` : (n,) int32 — room whose face was hit (-1: reveal or clutter).
+    ``angular_step`` : radians actually used.
+    """
+
+    cloud: PointCloud
+    wall_index: np.ndarray
+    room_index: np.ndarray
+    angular_step: float
+
+
+class _MeshBuilder:
+    def __init__(self):
+        self.v, self.t, self.lab, self.wall, self.room = [], [], [], [], []
+        self.nv = 0
+
+    def add(self, verts, tris, label, wall=-1, room=-1):
+        verts = np.asarray(verts, dtype=np.float64).reshape(-1, 3)
+        tris = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
+        if len(tris) == 0:
+            return
+        self.v.append(verts)
+        self.t.append(tris + self.nv)
+        self.nv += len(verts)
+        m = len(tris)
+        self.lab.append(np.full(m, label, np.int32))
+        self.wall.append(np.full(m, wall, np.int32))
+        self.room.append(np.full(m, room, np.int32))
+
+    def quad(self, a, b, c, d, label, wall=-1, room=-1):
+        self.add([a, b, c, d], [[0, 1, 2], [0, 2, 3]], label, wall, room)
+
+    def polygon(self, poly, z, label, room=-1):
+        tris = shapely.constrained_delaunay_triangles(poly)
+        vs = []
+        for tri in getattr(tris, "geoms", []):
+            c = np.asarray(tri.exterior.coords)[:3]
+            vs.append(np.column_stack([c, np.full(3, z)]))
+        if vs:
+            v = np.vstack(vs)
+            self.add(v, np.arange(len(v)).reshape(-1, 3), label, -1, room)
+
+    def box(self, footprint, z0, z1, label):
+        c = np.asarray(footprint.exterior.coords)[:4]
+        lo = np.column_stack([c, np.full(4, z0)])
+        hi = np.column_stack([c, np.full(4, z1)])
+        v = np.vstack([lo, hi])
+        tris = [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]]
+        for k in range(4):
+            a, b = k, (k + 1) % 4
+            tris += [[a, b, 4 + b], [a, 4 + b, 4 + a]]
+        self.add(v, tris, label)
+
+    def build(self) -> SceneMesh:
+        return SceneMesh(np.vstack(self.v), np.vstack(self.t).astype(np.int32), np.concatenate(self.lab),
+                         np.concatenate(self.wall), np.concatenate(self.room))
+
+
+def _intervals_on_edge(geoms, p, q, tol=1e-4):
+    """For each geometry, the [u0, u1] stretch of edge p→q it covers (or None)."""
+    d, _, length = _edge_frame(p, q)
+    line = LineString([p, q])
+    out = []
+    for g in geoms:
+        hit = g.buffer(tol).intersection(line)
+        if hit.is_empty or hit.length < 1e-3:
+            out.append(None)
+            continue
+        cs = np.vstack([np.asarray(h.coords) for h in getattr(hit, "geoms", [hit])])
+        u = (cs - np.asarray(p)) @ d
+        out.append((max(float(u.min()), 0.0), min(float(u.max()), length)))
+    return out
+
+
+def build_scene_mesh(plan: FloorPlan, geometry: Optional[PlanGeometry] = None, *,
+                     clutter: bool = True) -> SceneMesh:
+    """The triangle mesh a scanner inside ``plan`` sees (see module doc).
+
+    Parameters
+    ----------
+    plan : FloorPlan
+    geometry : PlanGeometry, optional
+        :func:`plan_geometry` of the plan, when already computed.
+    clutter : bool
+        Include the plan's clutter boxes.
+    """
+    g = plan_geometry(plan) if geometry is None else geometry
+    mb = _MeshBuilder()
+    open_doors = [(door, fp, w) for door, fp, w in g.doors if door.open]
+    for i, room in enumerate(plan.rooms):
+        poly = room.shape
+        z0, z1 = plan.floor_z(room), plan.ceiling_z(room)
+        mb.polygon(poly, z0, LABEL_FLOOR, i)
+        mb.polygon(poly, z1, LABEL_CEILING, i)
+        walls = [k for k, w in enumerate(g.walls) if w.storey == room.storey]
+        doors = [(door, fp, w) for door, fp, w in open_doors if room.name in door.rooms]
+        coords = np.asarray(poly.exterior.coords)
+        for p, q in zip(coords[:-1], coords[1:]):
+            d, _, length = _edge_frame(p, q)
+            w_iv = _intervals_on_edge([g.walls[k].polygon for k in walls], p, q)
+            d_iv = _intervals_on_edge([fp for _, fp, _ in doors], p, q)
+            cuts = {0.0, length}
+            for iv in w_iv + d_iv:
+                if iv is not None:
+                    cuts.update(iv)
+            cuts = np.array(sorted(c for c in cuts if -1e-9 <= c <= length + 1e-9))
+            for a, b in zip(cuts[:-1], cuts[1:]):
+                if b - a < 1e-6:
+                    continue
+                mid = (a + b) / 2
+                wall = -1
+                for k, iv in zip(walls, w_iv):
+                    if iv is not None and iv[0] - 1e-9 <= mid <= iv[1] + 1e-9:
+                        wall = k
+                        break
+                zb = z0
+                for (door, _, _), iv in zip(doors, d_iv):
+                    if iv is not None and iv[0] - 1e-9 <= mid <= iv[1] + 1e-9 and iv[1] - iv[0] > door.width / 2:
+                        zb = max(zb, z0 + door.height)
+                if zb >= z1 - 1e-9:
+                    continue
+                pa, pb = np.asarray(p) + d * a, np.asarray(p) + d * b
+                mb.quad([*pa, zb], [*pb, zb], [*pb, z1], [*pa, z1], LABEL_WALL, wall, i)
+    for door, fp, w in open_doors:  # reveals: jambs, head and threshold
+        z0 = plan.floor_z(plan.room(door.rooms[0]))
+        zh = z0 + door.height
+        c = np.asarray(fp.exterior.coords)[:4]
+        for a, b in ((1, 2), (3, 0)):
+            mb.quad([*c[a], z0], [*c[b], z0], [*c[b], zh], [*c[a], zh], LABEL_WALL, w)
+        mb.polygon(fp, zh, LABEL_WALL)
+        mb.polygon(fp, z0, LABEL_FLOOR)
+    if clutter:
+        for item in plan.clutter:
+            room = plan.room(item.room)
+            zf = plan.floor_z(room) + item.z0
+            fp = item.footprint()
+            if item.kind == "table":
+                top = 0.04
+                mb.box(fp, zf + item.size[2] - top, zf + item.size[2], LABEL_CLUTTER)
+                leg = 0.05
+                cs = np.asarray(fp.exterior.coords)[:4]
+                ctr = cs.mean(axis=0)
+                for cc in cs:
+                    lc = cc + (ctr - cc) / np.linalg.norm(ctr - cc) * 0.1
+                    mb.box(Point(lc).buffer(leg / 2, cap_style="square"), zf, zf + item.size[2] - top,
+                           LABEL_CLUTTER)
+            else:
+                mb.box(fp, zf, zf + item.size[2], LABEL_CLUTTER)
+    return mb.build()
+
+
+# ----------------------------------------------------------------------------- positions
+def _candidates(poly, params, blocked):
+    inner = poly.buffer(-params.wall_clearance)
+    if blocked is not None:
+        inner = inner.difference(blocked)
+    if inner.is_empty:
+        inner = poly.buffer(-min(params.wall_clearance, 0.2))
+    minx, miny, maxx, maxy = inner.bounds
+    s = params.position_grid
+    xs = np.arange(minx + s / 2, maxx, s)
+    ys = np.arange(miny + s / 2, maxy, s)
+    if len(xs) == 0 or len(ys) == 0:
+        c = inner.representative_point()
+        return np.array([[c.x, c.y]])
+    gx, gy = np.meshgrid(xs, ys)
+    pts = np.column_stack([gx.ravel(), gy.ravel()])
+    keep = shapely.contains_xy(inner, pts[:, 0], pts[:, 1])
+    if not keep.any():
+        c = inner.representative_point()
+        return np.array([[c.x, c.y]])
+    return pts[keep]
+
+
+def _spread(cands: np.ndarray, k: int, iterations: int = 10) -> np.ndarray:
+    """``k`` well-spread points among ``cands`` (farthest-point seeds, then k-means)."""
+    k = min(k, len(cands))
+    ctr = cands.mean(axis=0)
+    sel = [int(np.argmin(np.linalg.norm(cands - ctr, axis=1)))]
+    dist = np.linalg.norm(cands - cands[sel[0]], axis=1)
+    for _ in range(k - 1):
+        j = int(np.argmax(dist))
+        sel.append(j)
+        dist = np.minimum(dist, np.linalg.norm(cands - cands[j], axis=1))
+    centres = cands[sel].copy()
+    if k > 1:
+        for _ in range(iterations):
+            lab = np.argmin(np.linalg.norm(cands[:, None] - centres[None], axis=2), axis=1)
+            for c in range(k):
+                if np.any(lab == c):
+                    centres[c] = cands[lab == c].mean(axis=0)
+    snap = np.argmin(np.linalg.norm(cands[:, None] - centres[None], axis=2), axis=0)
+    return cands[snap]
+
+
+def _room_positions(plan, room, params, blocked):
+    poly = room.shape
+    cands = _candidates(poly, params, blocked)
+    mrr = poly.minimum_rotated_rectangle
+    cs = np.asarray(mrr.exterior.coords)
+    long_side = max(np.linalg.norm(cs[1] - cs[0]), np.linalg.norm(cs[2] - cs[1]))
+    k = max(1, math.ceil(poly.area / params.area_per_scan), math.ceil(long_side / params.max_scan_spacing))
+    return _spread(cands, k)
+
+
+def scanner_positions(plan: FloorPlan, params: ScanParams = ScanParams(),
+                      geometry: Optional[PlanGeometry] = None) -> np.ndarray:
+    """Scanner origins for the plan: (k, 3) float64, metres.
+
+    Terrestrial mode: per scanned room, ``max(area / area_per_scan, long side /
+    max_scan_spacing, 1)`` positions spread over the free floor (away from walls and
+    clutter). Mobile mode: every ``path_step`` along a walk that visits each scanned room
+    (through its terrestrial positions) and crosses the open doors between them, per
+    storey. Unscanned rooms get none.
+    """
+    g = plan_geometry(plan) if geometry is None else geometry
+    fps = {}
+    for c in plan.clutter:
+        fps.setdefault(c.room, []).append(c.footprint().buffer(params.clutter_clearance))
+    per_room = {}
+    for room in plan.rooms:
+        if room.scanned:
+            blocked = unary_union(fps[room.name]) if room.name in fps else None
+            per_room[room.name] = _room_positions(plan, room, params, blocked)
+    if params.mode == "tls":
+        out = [np.column_stack([xy, np.full(len(xy), plan.floor_z(plan.room(n)) + params.scanner_height)])
+               for n, xy in per_room.items()]
+        return np.vstack(out) if out else np.zeros((0, 3))
+    if params.mode != "mobile":
+        raise InputError(f"scan mode must be 'tls' or 'mobile', not {params.mode!r}")
+    # mobile: depth-first walk over rooms joined by open doors
+    links = {}
+    for door, fp, _ in g.doors:
+        a, b = door.rooms
+        if door.open and a in per_room and b in per_room:
+            c = np.asarray(fp.centroid.coords[0])
+            links.setdefault(a, []).append((b, c))
+            links.setdefault(b, []).append((a, c))
+    walks = []
+    seen = set()
+    for room in plan.rooms:
+        if room.name not in per_room or room.name in seen:
+            continue
+        way: list = []
+
+        def approach(name, c):
+            poly = plan.room(name).shape
+            near = poly.exterior.interpolate(poly.exterior.project(Point(c)))
+            v = np.asarray(near.coords[0]) - c
+            v = v / max(np.linalg.norm(v), 1e-9)
+            return np.asarray(near.coords[0]) + v * params.door_approach
+
+        def visit(name):
+            seen.add(name)
+            way.extend(per_room[name])
+            for other, c in links.get(name, []):
+                if other in seen:
+                    continue
+                way.extend([approach(name, c), c, approach(other, c)])
+                visit(other)
+                way.extend([approach(other, c), c, approach(name, c), per_room[name][0]])
+
+        visit(room.name)
+        walks.append((plan.room(room.name).storey, np.asarray(way)))
+    free = {}
+    for s in range(len(plan.storeys)):
+        rooms = [r.shape.buffer(-0.2) for r in plan.rooms if r.storey == s]
+        doors = [fp.buffer(0.05) for door, fp, _ in g.doors if door.open
+                 and plan.room(door.rooms[0]).storey == s]
+        tall = [c.footprint().buffer(0.1) for c in plan.clutter if plan.room(c.room).storey == s]
+        region = unary_union(rooms + doors)
+        if tall:
+            region = region.difference(unary_union(tall))
+        free[s] = region
+    out = []
+    for s, way in walks:
+        if len(way) == 1:
+            pts = way
+        else:
+            seg = np.linalg.norm(np.diff(way, axis=0), axis=1)
+            cum = np.concatenate([[0.0], np.cumsum(seg)])
+            ts = np.arange(0.0, cum[-1] + 1e-9, params.path_step)
+            pts = np.column_stack([np.interp(ts, cum, way[:, 0]), np.interp(ts, cum, way[:, 1])])
+        keep = shapely.contains_xy(free[s], pts[:, 0], pts[:, 1])
+        pts = pts[keep]
+        out.append(np.column_stack([pts, np.full(len(pts), plan.storeys[s].floor_z + params.scanner_height)]))
+    return np.vstack(out) if out else np.zeros((0, 3))
+
+
+# ----------------------------------------------------------------------------- rays
+def _grid_size(step: float, params: ScanParams) -> tuple[int, int]:
+    n_az = max(4, int(math.ceil(2 * math.pi / step)))
+    n_el = max(2, int(math.ceil((params.max_elevation - params.min_elevation) / step)))
+    return n_az, n_el
+
+
+def _directions(step: float, params: ScanParams, offset: float) -> np.ndarray:
+    n_az, n_el = _grid_size(step, params)
+    span = params.max_elevation - params.min_elevation
+    el = params.min_elevation + (np.arange(n_el) + 0.5) * span / n_el
+    az = offset + np.arange(n_az) * 2 * math.pi / n_az
+    ce, se = np.cos(el), np.sin(el)
+    d = np.empty((n_el, n_az, 3))
+    d[..., 0] = ce[:, None] * np.cos(az)[None]
+    d[..., 1] = ce[:, None] * np.sin(az)[None]
+    d[..., 2] = se[:, None]
+    return d.reshape(-1, 3)
+
+
+def _make_scene(mesh: SceneMesh):
+    try:
+        import open3d as o3d
+    except ImportError:  # pragma: no cover
+        from ..errors import MissingDependencyError
+
+        raise MissingDependencyError("open3d", "the scan simulation") from None
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)),
+                        o3d.core.Tensor(mesh.triangles.astype(np.uint32)))
+    return scene, o3d
+
+
+def _cast(scene, o3d, origin, dirs):
+    rays = np.empty((len(dirs), 6), np.float32)
+    rays[:, :3] = origin
+    rays[:, 3:] = dirs
+    ans = scene.cast_rays(o3d.core.Tensor(rays))
+    return ans["t_hit"].numpy().astype(np.float64), ans["primitive_ids"].numpy().astype(np.int64)
+
+
+def simulate_scan(plan: FloorPlan, params: ScanParams = ScanParams(), *,
+                  geometry: Optional[PlanGeometry] = None, clutter: bool = True,
+                  positions: Optional[np.ndarray] = None, rng=None,
+                  progress=None, should_stop=None) -> ScanResult:
+    """Simulate a scan of the plan's building.
+
+    Parameters
+    ----------
+    plan : FloorPlan
+    params : ScanParams
+    geometry : PlanGeometry, optional
+        :func:`plan_geometry` of the plan when already computed.
+    clutter : bool
+        Whether furniture is in the scene.
+    positions : (k, 3) float64, optional
+        Scanner origins (metres); default :func:`scanner_positions`.
+    rng : numpy Generator, int or None
+        Seed of the azimuth offsets and the range noise.
+    progress, should_stop : callbacks (see :class:`engine.progress.Progress`)
+
+    Returns
+    -------
+    ScanResult
+        Points (n, 3) float64 metres with ``scan_index``, ``scanner_positions`` and
+        ``fields["label"]`` (int32, LABEL_*).
+
+    Raises
+    ------
+    InputError
+        When there is no scanner position (every room unscanned).
+    """
+    rng = np.random.default_rng(rng)
+    prog = Progress.wrap(progress, should_stop)
+    g = plan_geometry(plan) if geometry is None else geometry
+    mesh = build_scene_mesh(plan, g, clutter=clutter)
+    pos = scanner_positions(plan, params, g) if positions is None else np.asarray(positions, float).reshape(-1, 3)
+    if len(pos) == 0:
+        raise InputError(f"plan {plan.name!r}: no scanner position (no room is scanned)")
+    scene, o3d = _make_scene(mesh)
+    prog(0.02, "ray casting")
+    offsets = rng.uniform(0.0, 2 * math.pi, len(pos))
+    step = params.angular_step
+    if params.target_points:
+        span = params.max_elevation - params.min_elevation
+        pilot = math.sqrt(len(pos) * 2 * math.pi * span / params.pilot_rays)
+        hits = rays = 0
+        dirs = _directions(pilot, params, 0.0)
+        for o in pos:
+            t, _ = _cast(scene, o3d, o, dirs)
+            hits += int(np.count_nonzero((t >= params.min_range) & (t <= params.max_range)))
+            rays += len(dirs)
+        frac = max(hits / max(rays, 1), 1e-3)
+        step = math.sqrt(len(pos) * 2 * math.pi * span * frac / params.target_points)
+    dirs = _directions(step, params, 0.0)
+    base_az = np.arctan2(dirs[:, 1], dirs[:, 0])
+    horiz = np.hypot(dirs[:, 0], dirs[:, 1])
+    xyz, lab, wall, room, sidx = [], [], [], [], []
+    for k, o in enumerate(pos):
+        az = base_az + offsets[k]
+        dk = np.column_stack([horiz * np.cos(az), horiz * np.sin(az), dirs[:, 2]])
+        for s0 in range(0, len(dk), params.batch_rays):
+            dd = dk[s0:s0 + params.batch_rays]
+            t, prim = _cast(scene, o3d, o, dd)
+            ok = np.isfinite(t) & (t >= params.min_range) & (t <= params.max_range)
+            t, prim, dd = t[ok], prim[ok], dd[ok]
+            r = t + rng.normal(0.0, params.sigma, len(t))
+            xyz.append(o + dd * r[:, None])
+            lab.append(mesh.labels[prim])
+            wall.append(mesh.wall_index[prim])
+            room.append(mesh.room_index[prim])
+            sidx.append(np.full(len(t), k, np.int32))
+        prog(0.02 + 0.98 * (k + 1) / len(pos), f"scan {k + 1}/{len(pos)}")
+    cloud = PointCloud(
+        xyz=np.vstack(xyz),
+        scan_index=np.concatenate(sidx),
+        scanner_positions=pos,
+        fields={"label": np.concatenate(lab).astype(np.int32)},
+        source=f"synthetic:{plan.name}",
+    )
+    log.info("simulated %d points from %d positions (step %.3f°)", len(cloud), len(pos), math.degrees(step))
+    return ScanResult(cloud, np.concatenate(wall), np.concatenate(room), step)
