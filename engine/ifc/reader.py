@@ -508,8 +508,10 @@ def read_mesh(path: str | os.PathLike, *, default_type: ShapeType | str = ShapeT
 
         raise MissingDependencyError("trimesh", "reading meshes") from None
     default_type = ShapeType.parse(default_type)
+    kwargs = {"split_objects": True, "group_material": False} if p.lower().endswith(".obj") else {}
+    loader = getattr(trimesh, "load_scene", trimesh.load)  # load() merges objects in trimesh >= 4.6
     try:
-        loaded = trimesh.load(p, process=False)
+        loaded = loader(p, process=False, **kwargs)
     except Exception as e:
         raise FormatError(f"cannot read the mesh: {e}", p) from None
     if isinstance(loaded, trimesh.Scene):
