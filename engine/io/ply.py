@@ -283,17 +283,36 @@ def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadPara
                     f"truncated binary body: the header declares {n:,} vertices "
                     f"({n * dt.itemsize:,} bytes) but the file holds only {available:,}", path)
             asm.fuse(dt)
-            f.seek(start)
             step = max(int(params.chunk_points), 1)
-            buf = np.empty(min(step, n), dtype=dt)  # one reused buffer: no per-chunk allocation
-            for i in range(0, n, step):
-                m = min(step, n - i)
-                chunk = buf[:m]
-                got = f.readinto(memoryview(chunk.view(np.uint8)))
-                if got != m * dt.itemsize:
-                    raise FormatError(f"truncated binary body at vertex {i + got // dt.itemsize:,} of {n:,}", path)
-                asm.put_records(i, chunk)
-                p((i + m) / max(n, 1), "reading PLY")
+            try:  # map the body: chunks are copied straight from the page cache
+                body = np.memmap(f, dtype=dt, mode="r", offset=start, shape=(n,)) if n else None
+            except (OSError, ValueError):  # a file system without mmap: read into a buffer
+                body = None
+            if body is not None:
+                try:
+                    for i in range(0, n, step):
+                        m = min(step, n - i)
+                        asm.put_records(i, body[i:i + m])
+                        p((i + m) / n, "reading PLY")
+                finally:
+                    mm = getattr(body, "_mmap", None)
+                    del body
+                    if mm is not None:
+                        try:  # release the file now (Windows cannot replace a mapped file)
+                            mm.close()
+                        except BufferError:  # still referenced somewhere: the GC closes it
+                            pass
+            else:
+                f.seek(start)
+                buf = np.empty(min(step, n), dtype=dt)  # one reused buffer: no per-chunk allocation
+                for i in range(0, n, step):
+                    m = min(step, n - i)
+                    chunk = buf[:m]
+                    got = f.readinto(memoryview(chunk.view(np.uint8)))
+                    if got != m * dt.itemsize:
+                        raise FormatError(f"truncated binary body at vertex {i + got // dt.itemsize:,} of {n:,}", path)
+                    asm.put_records(i, chunk)
+                    p((i + m) / max(n, 1), "reading PLY")
     return _finish(path, h, asm, params)
 
 
