@@ -481,3 +481,19 @@ def test_las_with_8bit_values_in_16bit_colour_is_kept(tmp_path):
     c = read_point_cloud(path)
     np.testing.assert_array_equal(c.colors[:, 0], np.arange(n) * 5)
     np.testing.assert_array_equal(c.colors[:, 1], 255)
+
+
+def test_ascii_ply_streamed_in_chunks_with_faces_after(tmp_path, monkeypatch):
+    import engine.io.ply as ply
+
+    cloud = make_cloud(n=700, seed=14)
+    path = tmp_path / "a.ply"
+    write_ply(path, cloud, binary=False)
+    text = path.read_text().replace("end_header\n", "element face 2\nproperty list uchar int vertex_indices\n"
+                                    "end_header\n")
+    path.write_text(text + "3 0 1 2\n4 0 1 2 3\n")
+    monkeypatch.setattr(ply, "_ASCII_CHUNK_BYTES", 4096)
+    calls = []
+    back = read_point_cloud(path, progress=lambda f, m: calls.append(f))
+    assert_same(cloud, back)
+    assert len(calls) > 10

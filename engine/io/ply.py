@@ -30,7 +30,7 @@ from ..fileutil import atomic_path
 from ..pointcloud import PointCloud
 from ..progress import Progress
 from ._common import DEFAULT_PARAMS, ReadParams, check_file, colors_to_u8, finish_cloud
-from ._text import parse_rows
+from ._text import iter_text_chunks, parse_rows
 
 __all__ = ["read_ply", "write_ply"]
 
@@ -43,6 +43,7 @@ _PLY_TYPES = {
 _NP_TO_PLY = {"i1": "char", "u1": "uchar", "i2": "short", "u2": "ushort", "i4": "int", "u4": "uint",
               "f4": "float", "f8": "double"}
 _MAX_HEADER_BYTES = 1 << 20
+_ASCII_CHUNK_BYTES = 32 << 20
 
 _ROLE_NAMES = {
     "x": ("xyz", 0), "y": ("xyz", 1), "z": ("xyz", 2),
@@ -317,23 +318,31 @@ def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadPara
 
 
 def _read_ascii_body(path, f, h, vi, n, pnames, asm, p, params):
+    """Stream the vertex lines of an ASCII body in chunks of about ``_ASCII_CHUNK_BYTES``."""
     f.seek(h.data_start)
-    text = f.read().decode("utf-8", errors="replace")
-    lines = text.splitlines()
-    skip = sum(e[1] for e in h.elements[:vi])
-    body = [ln for ln in lines if ln.strip()]
-    if len(body) < skip + n:
-        raise FormatError(f"the header declares {n:,} vertices but the file holds only "
-                          f"{max(len(body) - skip, 0):,} vertex lines", path)
-    vertex_lines = body[skip: skip + n]
-    step = max(int(params.chunk_points), 1)
+    size = max(os.path.getsize(path) - h.data_start, 1)
+    skip = sum(e[1] for e in h.elements[:vi])  # lines of the elements before 'vertex'
+    line_no = h.header_lines + 1
+    for _ in range(skip):
+        if not f.readline():
+            break
+        line_no += 1
     ncols = len(pnames)
-    for i in range(0, n, step):
-        block = "\n".join(vertex_lines[i: i + step])
-        vals = parse_rows(block, ncols, path, first_line=h.header_lines + skip + i + 1)
+    got = 0
+    for text, first, done in iter_text_chunks(f, _ASCII_CHUNK_BYTES, line_no):
+        need = n - got
+        if need <= 0:
+            break
+        if text.count("\n") >= need:  # the vertex lines end in this chunk: faces may follow
+            text = "\n".join(text.split("\n", need)[:need]) + "\n"
+        vals = parse_rows(text, ncols, path, first_line=first)
         cols = {nm: vals[:, k] for k, nm in enumerate(pnames)}
-        asm.put(i, cols.__getitem__)
-        p(min(i + step, n) / max(n, 1), "reading PLY")
+        m = min(len(vals), need)
+        asm.put(got, lambda nm: cols[nm][:m])
+        got += m
+        p(min(done / size, got / max(n, 1)), "reading PLY")
+    if got < n:
+        raise FormatError(f"the header declares {n:,} vertices but the file holds only {got:,} vertex lines", path)
 
 
 def _finish(path, h, asm, params):
