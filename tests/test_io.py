@@ -147,7 +147,8 @@ end_header
 
 
 def test_hand_written_ascii_ply(tmp_path):
-    rows = "".join(f"{k * 0.5} {-k} {k * 0.25 + 1} {k * 10} {255 - k} 7 {k * 1.5} {k % 3}\n" for k in range(12))
+    rows = "".join(f"{k * 0.5} {-k} {k * 0.25 + 1} {k * 10} {255 - k} 7 {k * 1.5} {k % 3}\n"
+                   for k in range(12))
     path = tmp_path / "a.ply"
     path.write_text(ASCII_PLY.format(rows=rows))
     c = read_point_cloud(path)
@@ -238,7 +239,8 @@ def pcd_bytes(cloud: PointCloud, data: str, viewpoint=(0, 0, 0)) -> bytes:
     n = len(cloud)
     rgb = ((cloud.colors[:, 0].astype(np.uint32) << 16) | (cloud.colors[:, 1].astype(np.uint32) << 8)
            | cloud.colors[:, 2].astype(np.uint32)).view(np.float32)
-    cols = [("x", "F", 4, cloud.xyz[:, 0].astype(np.float32)), ("y", "F", 4, cloud.xyz[:, 1].astype(np.float32)),
+    cols = [("x", "F", 4, cloud.xyz[:, 0].astype(np.float32)),
+            ("y", "F", 4, cloud.xyz[:, 1].astype(np.float32)),
             ("z", "F", 4, cloud.xyz[:, 2].astype(np.float32)), ("rgb", "F", 4, rgb),
             ("intensity", "F", 4, cloud.intensity.astype(np.float32)),
             ("normal_x", "F", 4, cloud.normals[:, 0]), ("normal_y", "F", 4, cloud.normals[:, 1]),
@@ -446,7 +448,8 @@ def test_e57_two_scans_with_poses(tmp_path):
 
 
 def test_supported_extensions():
-    assert set(SUPPORTED_EXTENSIONS) == {".ply", ".pcd", ".xyz", ".pts", ".txt", ".csv", ".las", ".laz", ".e57"}
+    assert set(SUPPORTED_EXTENSIONS) == {".ply", ".pcd", ".xyz", ".pts", ".txt", ".csv", ".las", ".laz",
+                                         ".e57"}
 
 
 def test_pcd_count_field_padding_and_uint_rgb(tmp_path):

@@ -62,7 +62,8 @@ def units_warning(cloud: PointCloud) -> Optional[str]:
     return getattr(cloud, UNITS_ATTRIBUTE, None)
 
 
-def read_point_cloud(path, *, progress=None, should_stop=None, params: Optional[ReadParams] = None) -> PointCloud:
+def read_point_cloud(path, *, progress=None, should_stop=None,
+                     params: Optional[ReadParams] = None) -> PointCloud:
     """Read a scan file into a :class:`~engine.pointcloud.PointCloud`.
 
     Parameters

@@ -44,6 +44,7 @@ class ReadParams:
 
 
 DEFAULT_PARAMS = ReadParams()
+_MM_PER_M = 1000.0
 
 
 def check_file(path) -> str:
@@ -105,9 +106,11 @@ def suspect_units(xyz_extent: np.ndarray, params: ReadParams = DEFAULT_PARAMS) -
         rescale would silently corrupt georeferenced data).
     """
     ext = float(np.max(xyz_extent)) if len(xyz_extent) else 0.0
-    if ext > params.max_indoor_extent_m and params.min_building_extent_m <= ext / 1000.0 <= params.max_indoor_extent_m:
+    as_m = ext / _MM_PER_M
+    plausible = params.min_building_extent_m <= as_m <= params.max_indoor_extent_m
+    if ext > params.max_indoor_extent_m and plausible:
         return (f"bounding box is {ext:,.0f} units across: too large for an indoor scan in metres; "
-                f"the coordinates look like millimetres ({ext / 1000.0:,.1f} m). They were NOT rescaled.")
+                f"the coordinates look like millimetres ({as_m:,.1f} m). They were NOT rescaled.")
     return None
 
 
@@ -174,7 +177,8 @@ def finish_cloud(
         def keep(a):
             return None if a is None else a[finite]
 
-        xyz, colors, intensity, normals, scan_index = (keep(a) for a in (xyz, colors, intensity, normals, scan_index))
+        xyz, colors, intensity, normals, scan_index = (
+            keep(a) for a in (xyz, colors, intensity, normals, scan_index))
         fields = {k: v[finite] for k, v in fields.items()}
     if n_ok < MIN_POINTS:
         raise EmptyCloudError(f"only {n_ok} usable points; at least {MIN_POINTS} are needed", path)

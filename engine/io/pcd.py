@@ -264,7 +264,8 @@ def _read_ascii(path, f, h, p, size, start):
         p((done) / max(size - start, 1), "reading PCD")
     table = np.concatenate(parts) if parts else np.zeros((0, ncols))
     if len(table) < n:
-        raise FormatError(f"the header declares {n:,} points but the file holds only {len(table):,} rows", path)
+        raise FormatError(f"the header declares {n:,} points but the file holds only "
+                          f"{len(table):,} rows", path)
     if len(table) > n:
         raise FormatError(f"the header declares {n:,} points but the file holds {len(table):,} rows", path)
     # ascii rgb is written as a float whose bits are the packed colour

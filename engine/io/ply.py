@@ -311,7 +311,8 @@ def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadPara
                     chunk = buf[:m]
                     got = f.readinto(memoryview(chunk.view(np.uint8)))
                     if got != m * dt.itemsize:
-                        raise FormatError(f"truncated binary body at vertex {i + got // dt.itemsize:,} of {n:,}", path)
+                        raise FormatError(f"truncated binary body at vertex "
+                                          f"{i + got // dt.itemsize:,} of {n:,}", path)
                     asm.put_records(i, chunk)
                     p((i + m) / max(n, 1), "reading PLY")
     return _finish(path, h, asm, params)
@@ -342,7 +343,8 @@ def _read_ascii_body(path, f, h, vi, n, pnames, asm, p, params):
         got += m
         p(min(done / size, got / max(n, 1)), "reading PLY")
     if got < n:
-        raise FormatError(f"the header declares {n:,} vertices but the file holds only {got:,} vertex lines", path)
+        raise FormatError(f"the header declares {n:,} vertices but the file holds only "
+                          f"{got:,} vertex lines", path)
 
 
 def _finish(path, h, asm, params):
@@ -351,7 +353,8 @@ def _finish(path, h, asm, params):
     fields = {k[6:]: v for k, v in a.items() if k.startswith("field:")}
     offs = _comment_values(h.comments, "indoor_offset")
     offset = np.asarray(offs[-1][:3]) if offs and len(offs[-1]) >= 3 else None
-    scanners = sorted((int(v[0]), v[1:4]) for v in _comment_values(h.comments, "indoor_scanner") if len(v) >= 4)
+    scanners = sorted((int(v[0]), v[1:4])
+                      for v in _comment_values(h.comments, "indoor_scanner") if len(v) >= 4)
     sp = np.asarray([s[1] for s in scanners], dtype=np.float64) if scanners else None
     return finish_cloud(path, a["xyz"], colors=colors, intensity=a.get("intensity"), normals=a.get("normals"),
                         scan_index=a.get("scan_index"), scanner_positions=sp, fields=fields, offset=offset,

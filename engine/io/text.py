@@ -130,7 +130,8 @@ def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadPar
     table = np.concatenate(parts) if len(parts) > 1 else parts[0]
     if count is not None and count != len(table):
         more = "larger than" if count > len(table) else "smaller than"
-        raise FormatError(f"the count line says {count:,} points, {more} the {len(table):,} rows in the file", path)
+        raise FormatError(f"the count line says {count:,} points, {more} the {len(table):,} rows "
+                          "in the file", path)
     names = None
     if header_names is not None and len(header_names) == ncols and {"x", "y", "z"} <= set(header_names):
         names = header_names
