@@ -147,6 +147,7 @@ class _Writer:
         self.geom = {}  # shape id -> Polyhedron in the written frame
         self.styles = {}
         self.contained = {}  # storey entity id -> list of products
+        self.tables = {}  # id(Polyhedron) -> face normals and vertices (see _face_table)
 
     # ------------------------------------------------------------------ frame
     def _frame(self):
@@ -553,7 +554,7 @@ class _Writer:
                 for w in elems:
                     if (s.id, self.ent[w.id].id()) in done:
                         continue
-                    common = _common_face(self.geom[s.id], self.geom[w.id], prm)
+                    common = _common_face(self.geom[s.id], self.geom[w.id], prm, self.tables)
                     if common is None:
                         continue
                     io = "EXTERNAL" if s.type == ShapeType.EXTERIOR else "NOTDEFINED"
@@ -576,7 +577,7 @@ class _Writer:
         self.api.boundary.edit_attributes(f, entity=b, relating_space=space, related_building_element=elem,
                                           physical_or_virtual=phys, internal_or_external=io)
         if common is None and elem_shape is not None:
-            common = _common_face(self.geom[space_id], self.geom[elem_shape], self.params)
+            common = _common_face(self.geom[space_id], self.geom[elem_shape], self.params, self.tables)
         if common is not None:
             poly2, origin, normal, u = common
             loc = origin - self.origin[space.id()]
@@ -671,7 +672,12 @@ def _plane_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, w / np.linalg.norm(w)
 
 
-def _common_face(space_g: Polyhedron, elem_g: Polyhedron, prm: IfcWriteParams):
+def _face_table(g: Polyhedron) -> list:
+    """[(unit outward normal (3,), vertices (k, 3))] of every face of ``g``."""
+    return [(g.face_normal(i), g.face_vertices(i)) for i in range(len(g.faces))]
+
+
+def _common_face(space_g: Polyhedron, elem_g: Polyhedron, prm: IfcWriteParams, tables: Optional[dict] = None):
     """The largest common region of an outward space face and an anti-parallel element face.
 
     Returns ``(polygon (k, 2) float64 in the plane frame, origin (3,), normal (3,), u (3,))``
@@ -683,19 +689,19 @@ def _common_face(space_g: Polyhedron, elem_g: Polyhedron, prm: IfcWriteParams):
     if np.any(sb[0] > eb[1] + prm.boundary_gap) or np.any(eb[0] > sb[1] + prm.boundary_gap):
         return None
     best = None
-    enorm = [elem_g.face_normal(j) for j in range(len(elem_g.faces))]
-    for i in range(len(space_g.faces)):
-        n = space_g.face_normal(i)
+    tables = {} if tables is None else tables
+    for g in (space_g, elem_g):
+        if id(g) not in tables:
+            tables[id(g)] = _face_table(g)
+    for n, vs in tables[id(space_g)]:
         if not np.any(n):
             continue
-        vs = space_g.face_vertices(i)
         d = float(n @ vs[0])
         u, w = _plane_basis(n)
         ps = None
-        for j, m in enumerate(enorm):
+        for m, ve in tables[id(elem_g)]:
             if -(n @ m) < prm.boundary_cos:
                 continue
-            ve = elem_g.face_vertices(j)
             if abs(float(n @ ve[0]) - d) > prm.boundary_gap:
                 continue
             if ps is None:
