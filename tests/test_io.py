@@ -500,3 +500,25 @@ def test_ascii_ply_streamed_in_chunks_with_faces_after(tmp_path, monkeypatch):
     back = read_point_cloud(path, progress=lambda f, m: calls.append(f))
     assert_same(cloud, back)
     assert len(calls) > 10
+
+
+def test_e57_streamed_in_chunks_with_invalid_points_and_no_pose(tmp_path):
+    pye57 = pytest.importorskip("pye57")
+    rng = np.random.default_rng(15)
+    n = 1200
+    p = rng.uniform(-3, 3, (n, 3)).astype(np.float32).astype(np.float64)
+    bad = np.zeros(n, np.int8)
+    bad[::7] = 2
+    path = str(tmp_path / "one.e57")
+    e = pye57.E57(path, mode="w")
+    e.write_scan_raw({"cartesianX": p[:, 0], "cartesianY": p[:, 1], "cartesianZ": p[:, 2],
+                      "cartesianInvalidState": bad})
+    e.close()
+    calls = []
+    c = read_point_cloud(path, progress=lambda f, m: calls.append(f), params=ReadParams(chunk_points=100))
+    assert len(c) == n - len(bad[::7]) and c.colors is None and c.intensity is None
+    np.testing.assert_allclose(c.xyz, p[bad == 0], atol=1e-12)
+    np.testing.assert_array_equal(c.scanner_positions, [[0.0, 0.0, 0.0]])
+    assert len(calls) >= 12
+    with pytest.raises(Cancelled):
+        read_point_cloud(path, should_stop=lambda: True, params=ReadParams(chunk_points=100))
