@@ -29,6 +29,7 @@ from ..pointcloud import PointCloud
 from ..progress import Progress
 from ..evaluation.coverage import PatchSupport, alpha_area, patch_support
 from ..evaluation.patches import patches_from_model
+from ..evaluation.loading import frame_transform
 from .registration import RegistrationParams, RegistrationResult, register
 
 __all__ = ["ChangeParams", "ChangeResult", "detect_changes", "cluster_points", "EXISTING", "NEW"]
@@ -60,20 +61,26 @@ class ChangeParams:
     normal_neighbours: int = 10
     """Nearest neighbours used for estimating missing normals (PCA); raise it for noisy
     (mobile) scans."""
-    classify_types: tuple = ("interior", "wall", "slab")
-    """Model shape types whose faces make a point existing."""
+    classify_types: tuple = ("interior", "wall", "slab", "door")
+    """Model shape types whose faces make a point existing (door boxes hold the jambs and
+    lintels of the openings)."""
     coverage_types: tuple = ("interior",)
     """Model shape types whose faces get a coverage value (the room faces)."""
     alpha_radius: float = 0.2
     """r_α: circumradius limit of the alpha-shape triangles, metres."""
     redundant_threshold: float = 0.25
     """Faces with coverage at most this are redundant (thesis: 0.2–0.3)."""
-    search_distance: float = 1.0
+    search_distance: float = 0.5
     """Per-point distances to the model are reported up to this, metres (inf beyond)."""
     cluster_voxel: float = 0.1
     """New points in touching voxels of this size belong to one cluster, metres."""
     min_cluster_points: int = 200
     """Smaller clusters of new points are noise, not candidate elements."""
+    wall_height_share: float = 0.85
+    """A candidate element spanning at least this share of its storey's floor-to-ceiling
+    height, from floor to ceiling, is a new *wall*; others are objects (furniture)."""
+    wall_end_tolerance: float = 0.15
+    """A wall candidate must come this close to the floor and to the ceiling, metres."""
     registration: RegistrationParams = field(default_factory=RegistrationParams)
     """How the scan is registered to the model."""
 
@@ -104,7 +111,9 @@ class ChangeResult:
     redundant : list of str
         Keys of the redundant faces.
     elements : list of dict
-        Candidate new elements: points, centroid, bounds, normal, extent.
+        Candidate new elements (clusters of new points, largest first): id (the
+        ``cluster`` value), points, centroid, bounds, normal (PCA), kind "wall" (spans
+        floor to ceiling) or "object" (furniture and the like).
     """
 
     registration: RegistrationResult
@@ -120,6 +129,11 @@ class ChangeResult:
     elements: list
     params: ChangeParams
 
+    def new_structure(self) -> np.ndarray:
+        """(n,) bool — points of candidate elements of kind "wall" (new structure)."""
+        ids = [e["id"] for e in self.elements if e["kind"] == "wall"]
+        return np.isin(self.cluster, ids)
+
     def summary(self) -> dict:
         """JSON-ready counts, registration and verdicts."""
         n = len(self.point_type)
@@ -133,6 +147,8 @@ class ChangeResult:
             "surfaces": len(self.coverage_keys),
             "redundant": list(self.redundant),
             "new_elements": len(self.elements),
+            "new_walls": sum(e["kind"] == "wall" for e in self.elements),
+            "new_wall_points": int(self.new_structure().sum()),
             "elements": self.elements,
         }
 
@@ -244,16 +260,29 @@ def _classify(patches, xyz, cloud, t, params: ChangeParams, should_stop) -> Patc
     return PatchSupport(on, dist, patch, members)
 
 
-def _element(xyz: np.ndarray, k: int) -> dict:
+def _storey_range(model: BuildingModel, z: float) -> tuple[float, float]:
+    """Floor and ceiling heights (metres) of the storey containing height ``z``."""
+    for st in model.storeys:
+        if st.floor_z - 0.5 <= z <= st.ceiling_z + 0.5:
+            return st.floor_z, st.ceiling_z
+    spaces = model.spaces
+    if spaces:
+        b = np.array([s.bounds for s in spaces])
+        return float(b[:, 0, 2].min()), float(b[:, 1, 2].max())
+    return float("-inf"), float("inf")
+
+
+def _element(xyz: np.ndarray, k: int, model: BuildingModel, params: ChangeParams) -> dict:
     c = xyz.mean(axis=0)
     w, v = np.linalg.eigh(np.cov((xyz - c).T))
-    normal = v[:, 0]
     lo, hi = xyz.min(axis=0), xyz.max(axis=0)
-    vertical = abs(normal[2]) < np.sin(np.radians(10.0))
+    floor, ceiling = _storey_range(model, float(c[2]))
+    tol = params.wall_end_tolerance
+    wall = (hi[2] - lo[2] >= params.wall_height_share * (ceiling - floor)
+            and lo[2] <= floor + tol and hi[2] >= ceiling - tol)
     return {"id": k, "points": int(len(xyz)), "centroid": c.tolist(), "bounds_min": lo.tolist(),
-            "bounds_max": hi.tolist(), "normal": normal.tolist(),
-            "thickness_m": float(2 * np.sqrt(max(w[0], 0.0))),
-            "kind": "wall" if vertical and (hi[2] - lo[2]) > 0.5 else "object"}
+            "bounds_max": hi.tolist(), "normal": v[:, 0].tolist(),
+            "kind": "wall" if wall else "object"}
 
 
 def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] = None, *,
@@ -269,7 +298,7 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
     params : ChangeParams
     initial : (4, 4) float64, optional
         Coarse scan → model transform, refined by ICP unless ``params.registration.enabled``
-        is False.
+        is False. Default: from the cloud's offset and the model's transform/offset.
 
     Returns
     -------
@@ -281,6 +310,8 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
         cloud = PointCloud(np.asarray(cloud, dtype=np.float64).reshape(-1, 3))
     if len(cloud) == 0:
         raise EmptyCloudError("the scan has no points", cloud.source or None)
+    if initial is None:
+        initial = frame_transform(np.eye(4), cloud.offset, model.transform, model.offset)
     reg = register(model, cloud.xyz, params.registration, initial=initial, progress=p.sub(0.0, 0.35),
                    should_stop=should_stop)
     t = reg.transform
@@ -314,7 +345,7 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
         remap[big] = np.arange(len(big), dtype=np.int32)
         cluster[new_idx] = remap[lab]
         for k, lab_k in enumerate(big):
-            elements.append(_element(xyz[new_idx[lab == lab_k]], k))
+            elements.append(_element(xyz[new_idx[lab == lab_k]], k, model, params))
     p(1.0, "done")
     log.info("change detection: %d of %d points new, %d redundant faces, %d candidate elements, residual %.4f m",
              len(new_idx), len(xyz), len(redundant), len(elements), reg.residual)

@@ -14,11 +14,12 @@ from typing import Optional
 import numpy as np
 
 from ..errors import InputError, MissingDependencyError
-from ..model import BuildingModel, Polyhedron, Scope
+from ..model import BuildingModel
 from ..progress import Progress
+from ..evaluation.loading import frame_transform, transform_model
 from ..evaluation.patches import patches_from_model, sample_patch_grid
 
-__all__ = ["RegistrationParams", "RegistrationResult", "register", "transform_model", "model_points"]
+__all__ = ["RegistrationParams", "RegistrationResult", "register", "transform_model", "frame_transform", "model_points"]
 
 log = logging.getLogger(__name__)
 
@@ -74,17 +75,6 @@ class RegistrationResult:
                 "residual_m": None if not np.isfinite(self.residual) else float(self.residual),
                 "rmse_point_to_plane_m": None if not np.isfinite(self.rmse) else float(self.rmse),
                 "fitness": float(self.fitness), "stages": list(self.stages)}
-
-
-def transform_model(model: BuildingModel, matrix: np.ndarray) -> BuildingModel:
-    """A copy of ``model`` with every shape's geometry moved by the 4×4 rigid ``matrix``."""
-    m = np.asarray(matrix, dtype=np.float64)
-    r, t = m[:3, :3], m[:3, 3]
-    shapes = []
-    for s in model.shapes:
-        v = s.geometry.vertices @ r.T + t
-        shapes.append(s.with_(geometry=Polyhedron(v, s.geometry.faces), scope=Scope.of_points(v)))
-    return model.with_(shapes=tuple(shapes))
 
 
 def model_points(model: BuildingModel, spacing: float, types=("interior",)) -> tuple[np.ndarray, np.ndarray]:

@@ -13,9 +13,9 @@ import os
 import numpy as np
 
 from ..errors import FormatError, InputError, MissingDependencyError
-from ..model import BuildingModel, Polyhedron, Provenance, Shape, ShapeType
+from ..model import BuildingModel, Polyhedron, Provenance, Scope, Shape, ShapeType
 
-__all__ = ["load_model", "mesh_to_model", "MODEL_EXTENSIONS"]
+__all__ = ["load_model", "mesh_to_model", "MODEL_EXTENSIONS", "transform_model", "frame_transform"]
 
 log = logging.getLogger(__name__)
 
@@ -109,3 +109,26 @@ def load_model(path: str | os.PathLike) -> BuildingModel:
         return _read_mesh_trimesh(path)
     raise InputError(f"unsupported model file type {ext or '(none)'!r}; expected one of "
                      f"{', '.join(MODEL_EXTENSIONS)}", path)
+
+
+def transform_model(model: BuildingModel, matrix: np.ndarray) -> BuildingModel:
+    """A copy of ``model`` with every shape's geometry moved by the 4×4 rigid ``matrix``."""
+    m = np.asarray(matrix, dtype=np.float64)
+    r, t = m[:3, :3], m[:3, 3]
+    shapes = []
+    for s in model.shapes:
+        v = s.geometry.vertices @ r.T + t
+        shapes.append(s.with_(geometry=Polyhedron(v, s.geometry.faces), scope=Scope.of_points(v)))
+    return model.with_(shapes=tuple(shapes))
+
+
+def frame_transform(src_transform, src_offset, dst_transform, dst_offset) -> np.ndarray:
+    """4×4 float64 mapping model-frame coordinates of one dataset to those of another.
+
+    Each dataset maps its model frame to file coordinates by ``p_file = T @ p + offset``
+    (:class:`BuildingModel` ``transform``/``offset``; a point cloud has ``T = I``).
+    Returns ``inv(T_dst) ∘ (T_src p + offset_src − offset_dst)``.
+    """
+    a = np.asarray(src_transform, dtype=np.float64).reshape(4, 4).copy()
+    a[:3, 3] += np.asarray(src_offset, dtype=np.float64) - np.asarray(dst_offset, dtype=np.float64)
+    return np.linalg.inv(np.asarray(dst_transform, dtype=np.float64).reshape(4, 4)) @ a

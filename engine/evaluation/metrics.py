@@ -33,6 +33,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import BuildingModel
 from ..progress import Progress
+from .loading import frame_transform, transform_model
 from .patches import PlanarPatch, overlap_on, patches_from_model, points_inside, sample_patch_grid
 
 __all__ = ["EvaluationParams", "EvaluationResult", "evaluate", "DEFAULT_BUFFERS", "GROUPS"]
@@ -228,7 +229,8 @@ def evaluate(source, reference, params: Optional[EvaluationParams] = None, *, vi
     ----------
     source, reference : BuildingModel or list of PlanarPatch
         The model under test and the ground truth. Their surfaces of
-        ``params.surface_types`` are compared.
+        ``params.surface_types`` are compared. Models whose ``transform``/``offset`` differ
+        are compared in the reference's frame.
     params : EvaluationParams
     visible : None, mapping key → bool, or iterable of keys
         Which reference surfaces are visible (see :func:`annotate_visibility`); None: all.
@@ -245,6 +247,11 @@ def evaluate(source, reference, params: Optional[EvaluationParams] = None, *, vi
     """
     params = params or EvaluationParams()
     p = Progress.wrap(progress, should_stop)
+    if isinstance(source, BuildingModel) and isinstance(reference, BuildingModel):
+        m = frame_transform(source.transform, source.offset, reference.transform, reference.offset)
+        if not np.allclose(m, np.eye(4), atol=1e-9):
+            log.info("moving the source into the reference's frame (their transforms/offsets differ)")
+            source = transform_model(source, m)
     src = _as_patches(source, params, "source")
     ref = _as_patches(reference, params, "reference")
     if not ref:

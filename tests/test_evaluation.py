@@ -1,0 +1,225 @@
+"""Quality evaluation (engine.evaluation): completeness, correctness, accuracy curves.
+
+Hand-built scenes (a 6 m × 9 m × 2.5 m room and a corridor, like the thesis's Fig. 5.9) and
+the ``eval_demo`` preset of engine.synthetic. "True shares" are derived from the geometry.
+"""
+import csv
+import json
+import os
+
+import numpy as np
+import pytest
+
+from engine.errors import InputError
+from engine.evaluation import (EvaluationParams, annotate_visibility, evaluate, load_model, patches_from_model,
+                               write_evaluation_outputs)
+from engine.evaluation.patches import points_inside
+from engine.model import BuildingModel, Polyhedron, Shape, ShapeType, Storey
+from engine.pointcloud import PointCloud
+
+H = 2.5
+ROOM = (0.0, 0.0, 6.0, 9.0)
+CORRIDOR = (6.2, -1.5, 8.2, 10.5)
+EXTRA = (-5.2, 1.5, -0.2, 7.5)
+B = np.round(np.arange(1, 11) * 0.01, 2)
+
+
+def _model(rooms, jitter=0.0, rng=None):
+    """Rooms as interior prisms; ``jitter``: uniform noise (metres) on every wall position."""
+    rng = np.random.default_rng(rng)
+    shapes = []
+    for name, (x0, y0, x1, y1) in rooms.items():
+        if jitter:
+            x0, y0, x1, y1 = np.array([x0, y0, x1, y1]) + rng.uniform(-jitter, jitter, 4)
+        shapes.append(Shape(id=name, type=ShapeType.INTERIOR, geometry=Polyhedron.box((x0, y0, 0), (x1, y1, H)),
+                            name=name))
+    return BuildingModel(shapes=tuple(shapes), storeys=(Storey(0, 0.0, H),))
+
+
+def _wall_area(model, names=None):
+    return sum(p.area for p in patches_from_model(model, kinds=("wall",))
+               if names is None or model[p.shape_id].name in names)
+
+
+REF = _model({"Room 1": ROOM, "Corridor": CORRIDOR})
+
+
+def _grow(rect, d, sides):
+    x0, y0, x1, y1 = rect
+    return (x0 - d * ("w" in sides), y0 - d * ("s" in sides), x1 + d * ("e" in sides), y1 + d * ("n" in sides))
+
+
+def _check_inacc(res, shift=0.05):
+    comp, corr, acc = (res.curve(m, "wall") for m in ("completeness", "correctness", "accuracy"))
+    small = res.buffers < shift - 1e-9
+    large = res.buffers >= shift + 0.01 - 1e-9
+    assert np.all(comp[small] <= 0.45) and np.all(corr[small] <= 0.45), (comp, corr)
+    assert np.all(comp[small] >= 0.2)  # the inner walls do match
+    assert np.all(comp[large] >= 0.97) and np.all(corr[large] >= 0.97), (comp, corr)
+    assert np.all(np.abs(acc[large] - shift) <= 0.005), acc
+    assert np.all(acc[small] <= 0.005), acc
+
+
+def test_inaccurate_source_handbuilt():
+    # outer walls 5 cm outwards: the room grows west/south/north, the corridor east/south/north
+    src = _model({"Room 1": _grow(ROOM, 0.05, "wsn"), "Corridor": _grow(CORRIDOR, 0.05, "esn")})
+    _check_inacc(evaluate(src, REF))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_incomplete_and_incorrect_handbuilt(seed):
+    rng = np.random.default_rng(seed)
+    incomp = _model({"Room 1": ROOM}, jitter=0.005, rng=rng)
+    res = evaluate(incomp, REF)
+    share = _wall_area(REF, {"Room 1"}) / _wall_area(REF)
+    comp, corr = res.curve("completeness", "wall"), res.curve("correctness", "wall")
+    assert np.all(np.abs(comp[B >= 0.01] - share) <= 0.03), (comp, share)
+    assert np.all(corr[B >= 0.01] >= 0.97)
+    assert sorted(k.split(":")[0] for k in res.missing) == ["Corridor"] * 6
+
+    incorr = _model({"Room 1": ROOM, "Corridor": CORRIDOR, "Room 2": EXTRA}, jitter=0.005, rng=rng)
+    res = evaluate(incorr, REF)
+    share = _wall_area(incorr, {"Room 1", "Corridor"}) / _wall_area(incorr)
+    comp, corr = res.curve("completeness", "wall"), res.curve("correctness", "wall")
+    assert np.all(comp[B >= 0.01] >= 0.97)
+    assert np.all(np.abs(corr[B >= 0.01] - share) <= 0.03), (corr, share)
+    assert {k.split(":")[0] for k in res.redundant} == {"Room 2"}
+    acc = res.curve("accuracy", "wall")
+    assert np.all(acc <= 0.005)
+
+
+def test_self_evaluation_is_perfect():
+    res = evaluate(REF, REF)
+    for g in ("wall", "floor", "ceiling", "all"):
+        np.testing.assert_allclose(res.curve("completeness", g), 1.0, atol=1e-9)
+        np.testing.assert_allclose(res.curve("correctness", g), 1.0, atol=1e-9)
+        np.testing.assert_allclose(res.curve("accuracy", g), 0.0, atol=1e-9)
+    assert res.missing == [] and res.redundant == []
+
+
+def test_duplicated_source_surfaces_count_once():
+    dup = BuildingModel(shapes=REF.shapes + tuple(s.with_(id=s.id + "_copy") for s in REF.shapes))
+    res = evaluate(dup, REF)
+    np.testing.assert_allclose(res.curve("completeness"), 1.0, atol=1e-9)
+    np.testing.assert_allclose(res.curve("correctness"), 0.5, atol=1e-9)
+
+
+def test_tilted_surface_counts_only_inside_buffer():
+    # a wall tilted about a horizontal axis by atan(0.1/2.5): its top is 10 cm off,
+    # so a buffer of b keeps the lower b/0.1 of it
+    ref = _model({"Room 1": ROOM})
+    v = np.array(ref["Room 1"].geometry.vertices)
+    top_west = (v[:, 0] == 0) & (v[:, 2] == H)
+    v[top_west, 0] -= 0.1
+    src = BuildingModel(shapes=(ref["Room 1"].with_(geometry=Polyhedron(v, ref["Room 1"].geometry.faces)),))
+    res = evaluate(src, ref, EvaluationParams(groups=("wall",)))
+    west = [j for j, p in enumerate(res.reference) if p.normal[0] < -0.99][0]
+    np.testing.assert_allclose(res.reference_covered[west, :], np.minimum(B / 0.1, 1.0), atol=0.02)
+
+
+def test_visibility_from_scan_excludes_unscanned_surfaces():
+    rng = np.random.default_rng(5)
+    pts = []
+    for p in patches_from_model(REF):
+        if REF[p.shape_id].name == "Corridor":
+            continue  # the corridor was not scanned
+        minx, miny, maxx, maxy = p.geom.bounds
+        xy = np.column_stack([rng.uniform(minx, maxx, 4000), rng.uniform(miny, maxy, 4000)])
+        pts.append(p.to3d(xy[points_inside(p, xy)]))
+    cloud = PointCloud(np.vstack(pts) + rng.normal(0, 0.005, (sum(map(len, pts)), 3)))
+    ann = annotate_visibility(REF, cloud)
+    vis = {k: v["visible"] for k, v in ann.items()}
+    assert all(v == (k.split(":")[0] == "Room 1") for k, v in vis.items())
+    assert min(v["point_on_face"] for k, v in ann.items() if vis[k]) > 0.9
+    incomp = _model({"Room 1": ROOM})
+    res = evaluate(incomp, REF, visible=vis)
+    np.testing.assert_allclose(res.curve("completeness"), 1.0, atol=1e-9)
+    assert res.missing == []
+
+
+def test_outputs(tmp_path):
+    src = _model({"Room 1": _grow(ROOM, 0.05, "wsn"), "Corridor": CORRIDOR})
+    res = evaluate(src, REF)
+    paths = write_evaluation_outputs(res, tmp_path, title="test")
+    d = json.load(open(paths["json"]))
+    assert d["buffers_m"] == pytest.approx(list(B))
+    assert d["curves"]["wall"]["completeness"] == pytest.approx(list(res.curve("completeness", "wall")))
+    rows = list(csv.DictReader(open(paths["csv"])))
+    assert len(rows) == 4 * len(B)
+    with open(paths["png"], "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+    for k in ("reference_ply", "source_ply", "points_ply"):
+        with open(paths[k], "rb") as f:
+            assert f.read(3) == b"ply"
+
+
+def _write_obj(path, model):
+    lines, k = [], 0
+    for s in model.spaces:
+        v, t = s.geometry.triangles()
+        lines.append(f"o {s.name.replace(' ', '_')}")
+        lines += [f"v {a:.6f} {b:.6f} {c:.6f}" for a, b, c in v]
+        lines += [f"f {a + 1 + k} {b + 1 + k} {c + 1 + k}" for a, b, c in t]
+        k += len(v)
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+def test_mesh_reference_and_json_source(tmp_path):
+    obj = tmp_path / "ref.obj"
+    _write_obj(obj, REF)
+    ref = load_model(obj)
+    assert len(patches_from_model(ref)) == 12  # triangles merged back into the 12 room faces
+    src = tmp_path / "src.json"
+    REF.to_json(src)
+    res = evaluate(load_model(src), ref)
+    np.testing.assert_allclose(res.curve("completeness"), 1.0, atol=1e-6)
+    np.testing.assert_allclose(res.curve("correctness"), 1.0, atol=1e-6)
+
+
+def test_load_model_errors(tmp_path):
+    with pytest.raises(InputError, match="not found"):
+        load_model(tmp_path / "missing.json")
+    bad = tmp_path / "model.xyz"
+    bad.write_text("1 2 3\n")
+    with pytest.raises(InputError, match="unsupported model file type"):
+        load_model(bad)
+
+
+# ------------------------------------------------------------------ the eval_demo preset
+@pytest.fixture(scope="module")
+def eval_demo():
+    synthetic = pytest.importorskip("engine.synthetic")
+    return synthetic.preset("eval_demo", seed=0, target_points=5000)
+
+
+def test_eval_demo_inacc(eval_demo):
+    res = evaluate(eval_demo.variants["inacc"], eval_demo.truth)
+    _check_inacc(res)
+
+
+def test_eval_demo_incomp_incorr(eval_demo):
+    ref = eval_demo.truth
+    ref_names = {s.name for s in ref.spaces}
+    incomp = eval_demo.variants["incomp"]
+    share = _wall_area(ref, {s.name for s in incomp.spaces}) / _wall_area(ref)
+    assert share < 0.9
+    res = evaluate(incomp, ref)
+    comp, corr = res.curve("completeness", "wall"), res.curve("correctness", "wall")
+    assert np.all(np.abs(comp[B >= 0.02] - share) <= 0.03), (comp, share)
+    assert np.all(corr[B >= 0.02] >= 0.97)
+
+    incorr = eval_demo.variants["incorr"]
+    share = _wall_area(incorr, ref_names) / _wall_area(incorr)
+    assert share < 0.9
+    res = evaluate(incorr, ref)
+    comp, corr = res.curve("completeness", "wall"), res.curve("correctness", "wall")
+    assert np.all(comp[B >= 0.02] >= 0.97)
+    assert np.all(np.abs(corr[B >= 0.02] - share) <= 0.03), (corr, share)
+
+
+def test_eval_demo_self(eval_demo):
+    res = evaluate(eval_demo.truth, eval_demo.truth)
+    np.testing.assert_allclose(res.curve("completeness"), 1.0, atol=1e-9)
+    np.testing.assert_allclose(res.curve("correctness"), 1.0, atol=1e-9)
+    np.testing.assert_allclose(res.curve("accuracy"), 0.0, atol=1e-9)
