@@ -6,7 +6,7 @@ import struct
 import numpy as np
 import pytest
 
-from engine.errors import Cancelled
+from engine.errors import Cancelled, FormatError
 from engine.io import (SUPPORTED_EXTENSIONS, ReadParams, lzf_decompress, read_point_cloud,
                        units_warning, write_ply)
 from engine.pointcloud import PointCloud
@@ -522,3 +522,24 @@ def test_e57_streamed_in_chunks_with_invalid_points_and_no_pose(tmp_path):
     assert len(calls) >= 12
     with pytest.raises(Cancelled):
         read_point_cloud(path, should_stop=lambda: True, params=ReadParams(chunk_points=100))
+
+
+def test_pts_with_two_scan_blocks(tmp_path, monkeypatch):
+    import engine.io.text as text
+
+    rng = np.random.default_rng(16)
+    a, b = rng.uniform(-5, 5, (300, 3)), rng.uniform(-5, 5, (200, 3))
+    path = tmp_path / "two.pts"
+    with open(path, "w") as f:
+        for block in (a, b):
+            f.write(f"{len(block)}\n")
+            f.writelines("%.6f %.6f %.6f -100 10 20 30\n" % tuple(r) for r in block)
+    monkeypatch.setattr(text, "_CHUNK_BYTES", 2000)  # count lines fall inside chunks
+    c = read_point_cloud(path)
+    np.testing.assert_allclose(c.xyz, np.concatenate([a, b]), atol=6e-7)
+    np.testing.assert_array_equal(np.bincount(c.scan_index), [300, 200])
+    np.testing.assert_array_equal(c.intensity, -100)
+    path.write_text(path.read_text().replace("\n200\n", "\n250\n"))
+    with pytest.raises(FormatError) as info:
+        read_point_cloud(path)
+    assert "block 2" in str(info.value) and "250" in str(info.value) and "200" in str(info.value)

@@ -15,12 +15,14 @@ Columns beyond ``x y z``:
   keeps columns 4.. as fields ``column_3``, ``column_4``...
 
 Colours are 0–255 (values above 255 are taken as 16-bit and scaled; fractions in [0, 1] are
-scaled by 255). Intensity is kept as written. A multi-block PTS (several count lines) is
-rejected with a wrong-column-count error on the second count line.
+scaled by 255). Intensity is kept as written. A PTS file with several blocks (a count line
+before each scan's points) gives one scan per block in ``scan_index``; every count is
+checked against its block.
 """
 from __future__ import annotations
 
 import os
+import re
 from typing import Optional
 
 import numpy as np
@@ -34,6 +36,7 @@ from ._text import iter_text_chunks, parse_rows, split_tokens
 __all__ = ["read_text"]
 
 _MAX_HEADER_LINES = 50
+_COUNT_LINE = re.compile(r"^[ \t]*(\d+)[ \t]*\r?\n", re.MULTILINE)
 _CHUNK_BYTES = 32 << 20
 _NAME_ROLES = {
     "x": ("xyz", 0), "y": ("xyz", 1), "z": ("xyz", 2),
@@ -124,14 +127,41 @@ def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadPar
         pos, first_line, ncols = first
         f.seek(pos)
         parts = []
+        blocks = [] if count is None else [count]  # declared sizes of PTS blocks
         for text, line, done in iter_text_chunks(f, _CHUNK_BYTES, first_line):
-            parts.append(parse_rows(text, ncols, path, line, commas=True))
+            if count is not None and _COUNT_LINE.search(text):  # a multi-scan PTS: new blocks
+                pieces = _COUNT_LINE.split(text)
+                # split() alternates text and captured counts: text, count, text, count, ...
+                for k in range(0, len(pieces), 2):
+                    if k:
+                        blocks.append(int(pieces[k - 1]))
+                        parts.append(None)  # block boundary
+                    if pieces[k].strip():
+                        parts.append(parse_rows(pieces[k], ncols, path, line, commas=True))
+                    line += pieces[k].count("\n") + (1 if k + 1 < len(pieces) else 0)
+            else:
+                parts.append(parse_rows(text, ncols, path, line, commas=True))
             p(done / max(size - pos, 1), "reading text")
-    table = np.concatenate(parts) if len(parts) > 1 else parts[0]
-    if count is not None and count != len(table):
-        more = "larger than" if count > len(table) else "smaller than"
-        raise FormatError(f"the count line says {count:,} points, {more} the {len(table):,} rows "
-                          "in the file", path)
+    # rows per block (one block unless a PTS file has several count lines)
+    sizes, cur = [], 0
+    for part in parts:
+        if part is None:
+            sizes.append(cur)
+            cur = 0
+        else:
+            cur += len(part)
+    sizes.append(cur)
+    parts = [part for part in parts if part is not None]
+    table = np.concatenate(parts) if parts else np.zeros((0, ncols))
+    for b, (declared, rows) in enumerate(zip(blocks, sizes)):
+        if declared != rows:
+            more = "larger than" if declared > rows else "smaller than"
+            where = f" of block {b + 1}" if len(blocks) > 1 else ""
+            raise FormatError(f"the count line{where} says {declared:,} points, {more} the {rows:,} rows "
+                              "that follow it", path)
+    scan_index = None
+    if len(blocks) > 1:
+        scan_index = np.repeat(np.arange(len(blocks), dtype=np.int32), sizes)
     names = None
     if header_names is not None and len(header_names) == ncols and {"x", "y", "z"} <= set(header_names):
         names = header_names
@@ -160,4 +190,4 @@ def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadPar
             arrays[target] = None
     colors = None if arrays["rgb"] is None else colors_to_u8(arrays["rgb"])
     return finish_cloud(path, arrays["xyz"], colors=colors, intensity=arrays["intensity"],
-                        normals=arrays["normals"], fields=fields, params=params)
+                        normals=arrays["normals"], scan_index=scan_index, fields=fields, params=params)
