@@ -110,8 +110,13 @@ def cmd_info(args) -> int:
 
 
 # --------------------------------------------------------------------------- main
-COMMANDS = [add_info]
-"""Parser builders, one per subcommand; later capabilities append theirs here."""
+def _commands():
+    """Parser builders, one per subcommand, in the order ``--help`` lists them."""
+    from .change.cli import add_changes
+    from .evaluation.cli import add_evaluate
+    from .synthetic.cli import add_synth
+
+    return [add_info, add_synth, add_evaluate, add_changes]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -134,7 +139,7 @@ def build_parser() -> argparse.ArgumentParser:
         return orig(name, **kw)
 
     sub.add_parser = add_parser
-    for add in COMMANDS:
+    for add in _commands():
         add(sub)
     return parser
 
