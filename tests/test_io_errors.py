@@ -242,3 +242,13 @@ def test_laz_without_backend_names_the_package(tmp_path, monkeypatch):
     with pytest.raises(MissingDependencyError) as info:
         read_point_cloud(p)
     assert "lazrs" in str(info.value) and str(p) in str(info.value)
+
+
+def test_ply_duplicate_property_and_missing_z(tmp_path):
+    p = tmp_path / "dup.ply"
+    p.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n"
+                  b"property float x\nproperty float z\nend_header\n" + bytes(12))
+    _raises(FormatError, p, "twice")
+    p.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\n"
+                  b"property float y\nend_header\n" + bytes(8))
+    _raises(FormatError, p, "lacks x, y or z")

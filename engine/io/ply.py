@@ -146,11 +146,19 @@ class _Assembler:
         self.arrays = {}
         self.plan = []
         self.raw_color_dtype = None
+        self.fused = []
         groups = {}
+        cols_of = {}
+        for name in names:
+            role = _ROLE_NAMES.get(name.lower())
+            if role is not None and role[1] is not None:
+                cols_of.setdefault(role[0], set()).add(role[1])
         for name, dt in zip(names, dtypes):
             role = _ROLE_NAMES.get(name.lower())
             if role is not None and role[0] in self.arrays and role[1] is None:
                 role = None  # a second intensity-like property: keep it as a field
+            if role is not None and role[1] is not None and cols_of[role[0]] != {0, 1, 2}:
+                role = None  # an incomplete colour or normal triple: keep its parts as fields
             if role is not None:
                 target, col = role
                 if target not in self.arrays:
@@ -207,7 +215,7 @@ class _Assembler:
 
     def put_records(self, start, chunk):
         """Copy one chunk of a structured array."""
-        for target, view in getattr(self, "fused", ()):
+        for target, view in self.fused:
             self.arrays[target][start:start + len(chunk)] = chunk.view(view)["v"]
         self.put(start, chunk.__getitem__)
 
@@ -263,6 +271,8 @@ def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadPara
         if any(len(pr) != 2 for pr in props):
             raise FormatError("list properties in the PLY vertex element are not supported", path)
         pnames = [pr[0] for pr in props]
+        if len(set(pnames)) != len(pnames):
+            raise FormatError("the PLY vertex element names a property twice", path)
         if not {"x", "y", "z"} <= set(pnames):
             raise FormatError("PLY vertex element lacks x, y or z", path)
         asm = _Assembler(pnames, [pr[1] for pr in props], n)
@@ -276,7 +286,10 @@ def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadPara
                     raise FormatError(f"PLY element {name!r} before 'vertex' has list properties; "
                                       "cannot locate the vertices", path)
                 skip += count * np.dtype([(pr[0], endian + pr[1]) for pr in eprops]).itemsize
-            dt = np.dtype([(pr[0], endian + pr[1]) for pr in props])
+            try:
+                dt = np.dtype([(pr[0], endian + pr[1]) for pr in props])
+            except (ValueError, TypeError) as e:  # e.g. two properties with one name
+                raise FormatError(f"bad PLY vertex properties ({e})", path) from None
             start = h.data_start + skip
             available = max(size - start, 0) // dt.itemsize if dt.itemsize else 0
             if available < n:
