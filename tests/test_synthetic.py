@@ -383,7 +383,7 @@ def test_cli_synth_writes_scan_truth_variants_and_png(tmp_path, monkeypatch):
     args.quiet, args.json = True, False
     assert args.func(args) == 0
     for f in ("eval_demo.ply", "eval_demo_truth.json", "eval_demo_inacc.json", "eval_demo_incomp.json",
-              "eval_demo_incorr.json", "eval_demo_top.png"):
+              "eval_demo_incorr.json", "eval_demo_top.png", "eval_demo_truth.ifc", "eval_demo_incorr.ifc"):
         assert os.path.getsize(tmp_path / f) > 0
     from engine.model import BuildingModel
 

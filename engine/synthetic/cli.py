@@ -1,8 +1,9 @@
 """``indoor synth PRESET -o DIR [--seed N] [--noise tls|mobile|SIGMA] [--points N]``.
 
 Writes ``DIR/<preset>.ply`` (the simulated scan with per-point ``label``, ``scan_index``
-and, for change_demo, ``new``), ``DIR/<preset>_truth.json`` (the true model),
-``DIR/<preset>_<variant>.json`` for each variant and ``DIR/<preset>_top.png`` (a top view).
+and, for change_demo, ``new``), ``DIR/<preset>_truth.json`` and ``.ifc`` (the true model),
+``DIR/<preset>_<variant>.json`` and ``.ifc`` for each variant and ``DIR/<preset>_top.png``
+(a top view).
 """
 from __future__ import annotations
 
@@ -29,11 +30,17 @@ def add_synth(sub) -> None:
                    help=f"about how many points to simulate (default {DEFAULT_POINTS:,})")
     p.add_argument("--no-clutter", action="store_true", help="leave the rooms empty")
     p.add_argument("--no-png", action="store_true", help="skip the top-view picture")
+    p.add_argument("--no-ifc", action="store_true", help="skip the IFC files of the true model and variants")
     p.set_defaults(func=cmd_synth)
 
 
-def write_scene(scene, out_dir, *, png: bool = True) -> dict:
-    """Write a :class:`SyntheticScene`'s files into ``out_dir``; return their paths and timings."""
+def write_scene(scene, out_dir, *, png: bool = True, ifc: bool = True) -> dict:
+    """Write a :class:`SyntheticScene`'s files into ``out_dir``; return their paths and timings.
+
+    Files: ``<name>.ply`` (scan), ``<name>_truth.json`` (+ ``.ifc``), ``<name>_<variant>.json``
+    (+ ``.ifc``) and ``<name>_top.png``. The IFC files are skipped, with a warning, when
+    ifcopenshell is missing.
+    """
     from ..io import write_ply
 
     os.makedirs(out_dir, exist_ok=True)
@@ -48,6 +55,20 @@ def write_scene(scene, out_dir, *, png: bool = True) -> dict:
     for k, m in scene.variants.items():
         files[k] = os.path.join(out_dir, f"{name}_{k}.json")
         m.to_json(files[k])
+    t_ifc = 0.0
+    if ifc:
+        from ..errors import MissingDependencyError
+
+        t0 = time.perf_counter()
+        try:
+            from ..ifc import write_ifc
+
+            files["truth_ifc"] = write_ifc(scene.truth, os.path.join(out_dir, f"{name}_truth.ifc"))
+            for k, m in scene.variants.items():
+                files[f"{k}_ifc"] = write_ifc(m, os.path.join(out_dir, f"{name}_{k}.ifc"))
+        except (ImportError, MissingDependencyError) as e:
+            log.warning("IFC files skipped: %s", e)
+        t_ifc = time.perf_counter() - t0
     t_png = 0.0
     if png:
         from .render import top_view_png
@@ -58,7 +79,7 @@ def write_scene(scene, out_dir, *, png: bool = True) -> dict:
                      title=f"{name} (seed {scene.seed}, σ = {scene.noise_sigma * 1000:.0f} mm, "
                            f"{len(scene.cloud):,} points)")
         t_png = time.perf_counter() - t0
-    return {"files": files, "write_ply_s": t_ply, "png_s": t_png}
+    return {"files": files, "write_ply_s": t_ply, "ifc_s": t_ifc, "png_s": t_png}
 
 
 def cmd_synth(args) -> int:
@@ -74,7 +95,7 @@ def cmd_synth(args) -> int:
     finally:
         bar.close()
     t_sim = time.perf_counter() - t0
-    written = write_scene(scene, args.out, png=not args.no_png)
+    written = write_scene(scene, args.out, png=not args.no_png, ifc=not args.no_ifc)
     total = time.perf_counter() - t0
     payload = {
         "preset": scene.name,
@@ -86,7 +107,8 @@ def cmd_synth(args) -> int:
         "variants": sorted(scene.variants),
         "files": written["files"],
         "seconds": {"simulate": round(t_sim, 3), "write_ply": round(written["write_ply_s"], 3),
-                    "png": round(written["png_s"], 3), "total": round(total, 3)},
+                    "ifc": round(written["ifc_s"], 3), "png": round(written["png_s"], 3),
+                    "total": round(total, 3)},
     }
     lines = [f"{scene.name}: {len(scene.cloud):,} points from {scene.cloud.scan_count} scanner positions "
              f"(σ = {scene.noise_sigma * 1000:.0f} mm) in {total:.1f} s"]

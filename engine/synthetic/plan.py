@@ -51,6 +51,9 @@ _MIN_INTERVAL = 0.05
 _PROBE_MARGIN = 0.02
 """Extra depth (metres) of the probe strip that finds the room across a wall gap."""
 _MITRE = dict(join_style="mitre", mitre_limit=10.0)
+"""Sharp mitred offsets: shrinking cells keeps the wall gap exact at any corner angle."""
+_OUTLINE_JOIN = dict(join_style="mitre", mitre_limit=2.0)
+"""The building outline keeps right-angled (and blunter) corners square and bevels acute ones."""
 
 
 # ----------------------------------------------------------------------------- plan types
@@ -425,7 +428,7 @@ def plan_geometry(plan: FloorPlan) -> PlanGeometry:
             for j in range(i):
                 if pi.intersection(polys[j]).area > 1e-4:
                     raise InputError(f"rooms {rooms[i].name!r} and {rooms[j].name!r} overlap")
-        outline = unary_union([p.buffer(t_ext, **_MITRE) for p in polys])
+        outline = unary_union([p.buffer(t_ext, **_OUTLINE_JOIN) for p in polys])
         if not isinstance(outline, Polygon):
             raise InputError(f"storey {s} of plan {plan.name!r} is not one connected building")
         outline = _clean(Polygon(outline.exterior))

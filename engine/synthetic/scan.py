@@ -279,26 +279,32 @@ def build_scene_mesh(plan: FloorPlan, geometry: Optional[PlanGeometry] = None, *
 
 
 # ----------------------------------------------------------------------------- positions
-def _candidates(poly, params, blocked):
-    inner = poly.buffer(-params.wall_clearance)
-    if blocked is not None:
-        inner = inner.difference(blocked)
-    if inner.is_empty:
-        inner = poly.buffer(-min(params.wall_clearance, 0.2))
-    minx, miny, maxx, maxy = inner.bounds
+_CLEARANCE_RELAXATION = (1.0, 0.5, 0.25)
+"""Factors applied to the wall and clutter clearances when a room has no free spot."""
+
+
+def _candidates(poly, params, clutter):
+    """Grid points (c, 2) where a scanner may stand: inside ``poly``, clear of walls and of
+    the clutter footprints (relaxing the clearances when a small room is full); empty
+    when there is no such spot at all."""
     s = params.position_grid
-    xs = np.arange(minx + s / 2, maxx, s)
-    ys = np.arange(miny + s / 2, maxy, s)
-    if len(xs) == 0 or len(ys) == 0:
+    for f in _CLEARANCE_RELAXATION:
+        inner = poly.buffer(-params.wall_clearance * f)
+        if clutter:
+            inner = inner.difference(unary_union([c.buffer(params.clutter_clearance * f) for c in clutter]))
+        if inner.is_empty:
+            continue
+        minx, miny, maxx, maxy = inner.bounds
+        xs = np.arange(minx + s / 2, maxx, s)
+        ys = np.arange(miny + s / 2, maxy, s)
+        gx, gy = np.meshgrid(xs, ys)
+        pts = np.column_stack([gx.ravel(), gy.ravel()])
+        keep = shapely.contains_xy(inner, pts[:, 0], pts[:, 1]) if len(pts) else np.zeros(0, bool)
+        if keep.any():
+            return pts[keep]
         c = inner.representative_point()
         return np.array([[c.x, c.y]])
-    gx, gy = np.meshgrid(xs, ys)
-    pts = np.column_stack([gx.ravel(), gy.ravel()])
-    keep = shapely.contains_xy(inner, pts[:, 0], pts[:, 1])
-    if not keep.any():
-        c = inner.representative_point()
-        return np.array([[c.x, c.y]])
-    return pts[keep]
+    return np.zeros((0, 2))
 
 
 def _spread(cands: np.ndarray, k: int, iterations: int = 10) -> np.ndarray:
@@ -322,9 +328,12 @@ def _spread(cands: np.ndarray, k: int, iterations: int = 10) -> np.ndarray:
     return cands[snap]
 
 
-def _room_positions(plan, room, params, blocked):
+def _room_positions(plan, room, params, clutter):
     poly = room.shape
-    cands = _candidates(poly, params, blocked)
+    cands = _candidates(poly, params, clutter)
+    if len(cands) == 0:
+        log.warning("room %r has no free spot for a scanner; it stays unscanned", room.name)
+        return cands
     mrr = poly.minimum_rotated_rectangle
     cs = np.asarray(mrr.exterior.coords)
     long_side = max(np.linalg.norm(cs[1] - cs[0]), np.linalg.norm(cs[2] - cs[1]))
@@ -345,12 +354,13 @@ def scanner_positions(plan: FloorPlan, params: ScanParams = ScanParams(),
     g = plan_geometry(plan) if geometry is None else geometry
     fps = {}
     for c in plan.clutter:
-        fps.setdefault(c.room, []).append(c.footprint().buffer(params.clutter_clearance))
+        fps.setdefault(c.room, []).append(c.footprint())
     per_room = {}
     for room in plan.rooms:
         if room.scanned:
-            blocked = unary_union(fps[room.name]) if room.name in fps else None
-            per_room[room.name] = _room_positions(plan, room, params, blocked)
+            xy = _room_positions(plan, room, params, fps.get(room.name, []))
+            if len(xy):
+                per_room[room.name] = xy
     if params.mode == "tls":
         out = [np.column_stack([xy, np.full(len(xy), plan.floor_z(plan.room(n)) + params.scanner_height)])
                for n, xy in per_room.items()]
