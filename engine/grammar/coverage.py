@@ -124,17 +124,65 @@ def _tri_area(t: np.ndarray) -> np.ndarray:
                         - (t[:, 1, 1] - t[:, 0, 1]) * (t[:, 2, 0] - t[:, 0, 0]))
 
 
-def alpha_geometry(xy: np.ndarray, r_alpha: float):
+def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap: float = 0.0,
+                   tolerance: float = 1e-9):
     """The alpha shape of ``xy`` as one shapely (Multi)Polygon (union of its triangles).
 
-    ``xy`` : (n, 2) float64 metres. No triangle: an empty GeometryCollection.
+    Parameters
+    ----------
+    xy : (n, 2) float64 — metres.
+    r_alpha : circumradius bound, metres.
+    blockers : sequence of (2, 2) segments (metres) no triangle may cross: a triangle with
+        corners strictly on both sides of a blocker's line (beyond ``tolerance``) where it
+        meets the segment is dropped — so the shape never bridges a wall.
+    snap : points within this distance of a blocker (and within its extent) are moved onto
+        it first, so the shape reaches the wall instead of stopping half a point spacing
+        short of it (metres; 0: no snapping).
+
+    Returns
+    -------
+    shapely geometry; an empty GeometryCollection when there is no triangle.
     """
     import shapely
 
+    xy = np.array(xy, dtype=np.float64).reshape(-1, 2)
+    segs = np.asarray(blockers, dtype=np.float64).reshape(-1, 2, 2)
+    if len(segs) and snap > 0 and len(xy):
+        from scipy.spatial import cKDTree
+
+        tree = cKDTree(xy)
+        for p, q in segs:
+            d = q - p
+            L = float(np.linalg.norm(d))
+            if L <= 0:
+                continue
+            u = d / L
+            idx = np.asarray(tree.query_ball_point((p + q) / 2, L / 2 + snap), dtype=np.int64)
+            if len(idx) == 0:
+                continue
+            rel = xy[idx] - p
+            t = rel @ u
+            dist = np.abs(rel @ np.array([-u[1], u[0]]))
+            m = (dist <= snap) & (t >= 0) & (t <= L)
+            xy[idx[m]] = p + t[m, None] * u
     t = alpha_triangles(xy, r_alpha)
     if len(t) == 0:
         return shapely.GeometryCollection()
     polys = shapely.polygons(t)
+    if len(segs):
+        lines = shapely.linestrings(segs)
+        li, ti = shapely.STRtree(polys).query(lines, predicate="intersects")
+        if len(li):
+            p0 = segs[li, 0]
+            d = segs[li, 1] - p0
+            nrm = np.column_stack([-d[:, 1], d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
+            sd = np.einsum("kij,kj->ki", t[ti] - p0[:, None, :], nrm)
+            cross = (sd.max(axis=1) > tolerance) & (sd.min(axis=1) < -tolerance)
+            keep = np.ones(len(polys), bool)
+            keep[ti[cross]] = False
+            polys = polys[keep]
+        if len(polys) == 0:
+            return shapely.GeometryCollection()
     try:  # Delaunay triangles form a valid coverage: fast path
         return shapely.coverage_union_all(polys)
     except Exception:  # pragma: no cover - older GEOS
@@ -229,6 +277,10 @@ def _segments(geom) -> list[np.ndarray]:
     return out
 
 
+_EDGE_TOL = 1e-6
+"""Two cell outlines closer than this (metres) share an edge."""
+
+
 def cellset_from_polygons(polygons: Sequence, z_range, min_face_length: float = 0.02) -> CellSet:
     """Build the adapter from 2-D cell footprints (a partition: no overlaps).
 
@@ -258,7 +310,9 @@ def cellset_from_polygons(polygons: Sequence, z_range, min_face_length: float = 
     for i, j in zip(*pairs):
         if j <= i:
             continue
-        inter = shapely.intersection(bnd[i], bnd[j])
+        # with a tolerance: float noise and vertices dropped on one side only (merged
+        # slivers) must not hide a shared edge
+        inter = shapely.intersection(bnd[i], shapely.buffer(bnd[j], _EDGE_TOL, cap_style="flat"))
         if inter.is_empty or inter.length < min_face_length:
             continue
         segs = _segments(shapely.line_merge(inter) if inter.geom_type == "MultiLineString" else inter)
@@ -270,7 +324,7 @@ def cellset_from_polygons(polygons: Sequence, z_range, min_face_length: float = 
     for i in range(n):
         rest = bnd[i]
         if shared[i]:
-            rest = shapely.difference(rest, shapely.buffer(shapely.union_all(shared[i]), 1e-6, cap_style="flat"))
+            rest = shapely.difference(rest, shapely.buffer(shapely.union_all(shared[i]), 10 * _EDGE_TOL))
         if rest.is_empty or rest.length < min_face_length:
             continue
         segs = [s for s in _segments(rest) if np.linalg.norm(s[1] - s[0]) >= 1e-6]
@@ -321,7 +375,7 @@ def _points_in_cells(polys, xy: np.ndarray) -> np.ndarray:
 
 
 def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.ndarray, *,
-                     shape_buffer: float, r_alpha: float, thin: float,
+                     shape_buffer: float, r_alpha: float, thin: float, min_wall_coverage: float = 0.2,
                      should_check=None) -> CellCoverage:
     """Measure the per-cell and per-face coverage once (see the module doc).
 
@@ -334,6 +388,9 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
     r_alpha : circumradius bound of the alpha shapes, metres.
     thin : points are thinned to one per cell of this grid (metres) before measuring; also
         the voxel of the inside-area estimate.
+    min_wall_coverage : a face whose wall coverage is at least this share of its area is a
+        seen wall: no ceiling alpha triangle may cross it (so the ceiling's alpha shape never
+        bridges a wall, whatever r_α and the point spacing).
     should_check : optional callable polled between faces (cancellation).
 
     Returns
@@ -352,32 +409,7 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
     hw = thin_points(hw, thin)
     vw = thin_points(vw, thin)
 
-    # --- ceilings and floors: which cell holds each horizontal point
-    hc = _points_in_cells(cells.polygons, hw[:, :2])
-    ok = hc >= 0
-    upper = np.zeros(len(hw), bool)
-    upper[ok] = hw[ok, 2] > zmid[hc[ok]]
-    ceil_pts = hw[upper]
-    geom = alpha_geometry(thin_points(ceil_pts[:, :2], thin), r_alpha)
-    total_h = float(geom.area)
-    if geom.is_empty:
-        top = np.zeros(n)
-    else:
-        shapely.prepare(geom)
-        top = shapely.area(shapely.intersection(geom, np.array(cells.polygons, dtype=object)))
-    ceiling_z = np.full(n, np.nan)
-    floor_z = np.full(n, np.nan)
-    lower = ok & ~upper
-    for arr, mask in ((ceiling_z, upper), (floor_z, lower)):
-        idx = hc[mask]
-        z = hw[mask, 2]
-        if len(idx):
-            order = np.argsort(idx, kind="stable")
-            idx, z = idx[order], z[order]
-            cuts = np.flatnonzero(np.diff(idx)) + 1
-            for grp_i, grp_z in zip(np.split(idx, cuts), np.split(z, cuts)):
-                arr[grp_i[0]] = float(np.median(grp_z))
-
+    hc = None
     # --- faces: wall points within δ of the face's footprint segment
     face = np.zeros(len(cells.faces))
     tree = cKDTree(vw[:, :2]) if len(vw) else None
@@ -409,6 +441,37 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
             tot += alpha_area(tz, r_alpha, clip=((0.0, z0), (L, z1)))
         face[fi] = tot
     total_v = float(face.sum())
+
+    # --- ceilings and floors: which cell holds each horizontal point
+    hc = _points_in_cells(cells.polygons, hw[:, :2])
+    ok = hc >= 0
+    upper = np.zeros(len(hw), bool)
+    upper[ok] = hw[ok, 2] > zmid[hc[ok]]
+    ceil_pts = hw[upper]
+    # faces seen as walls block the ceiling's alpha shape: no triangle may bridge a wall
+    h = np.maximum(zr[:, 1] - zr[:, 0], 1e-9)
+    seen = [fi for fi, f in enumerate(cells.faces)
+            if face[fi] >= min_wall_coverage * f.length * h[f.a]]
+    blockers = [s for fi in seen for s in cells.faces[fi].segments]
+    geom = alpha_geometry(thin_points(ceil_pts[:, :2], thin), r_alpha, blockers=blockers, snap=shape_buffer)
+    total_h = float(geom.area)
+    if geom.is_empty:
+        top = np.zeros(n)
+    else:
+        shapely.prepare(geom)
+        top = shapely.area(shapely.intersection(geom, np.array(cells.polygons, dtype=object)))
+    ceiling_z = np.full(n, np.nan)
+    floor_z = np.full(n, np.nan)
+    lower = ok & ~upper
+    for arr, mask in ((ceiling_z, upper), (floor_z, lower)):
+        idx = hc[mask]
+        z = hw[mask, 2]
+        if len(idx):
+            order = np.argsort(idx, kind="stable")
+            idx, z = idx[order], z[order]
+            cuts = np.flatnonzero(np.diff(idx)) + 1
+            for grp_i, grp_z in zip(np.split(idx, cuts), np.split(z, cuts)):
+                arr[grp_i[0]] = float(np.median(grp_z))
 
     # --- points strictly inside cells: voxel-occupancy area
     inside = np.zeros(n)

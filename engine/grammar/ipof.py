@@ -32,8 +32,14 @@ def plane_cells(uv: np.ndarray, spacing: float) -> np.ndarray:
     return (cells + 0.5) * spacing
 
 
-def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, spacing: float):
+def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, spacing: float,
+                    margin: float = 0.0, resolution: float | None = None):
     """Point-on-face index of every rectangle of a grid on one plane.
+
+    The covered area n σ² is measured as the union of discs of radius σ around the
+    points (rasterised at ``resolution`` and dilated), clipped to each rectangle: overlaps
+    count once, so a dense patch cannot score above 1, and randomly sampled surfaces at
+    spacing σ are fully covered.
 
     Parameters
     ----------
@@ -43,23 +49,73 @@ def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, sp
     u_edges : (a + 1,) float64, increasing — the grid's cuts along u, metres.
     v_edges : (b + 1,) float64, increasing — the grid's cuts along v, metres.
     spacing : σ, metres.
+    margin : points closer than this to a rectangle's edge do not count, and the area is
+        shrunk alike (at most a quarter of each side), metres. With margin = 2 σ_noise,
+        the noisy edge of a neighbouring surface (a ceiling meeting a wall) does not make
+        the top of a thin wall look seen.
+    resolution : raster cell, metres (default σ / 3, at least 1 cm).
 
     Returns
     -------
-    ipof : (a, b) float64 — n σ² / A of each rectangle (0 for an empty grid).
+    ipof : (a, b) float64 — covered area / area of each rectangle, 0–1 (0 for an empty grid).
     """
+    from scipy.ndimage import binary_dilation
+
     a, b = len(u_edges) - 1, len(v_edges) - 1
     out = np.zeros((max(a, 0), max(b, 0)))
     if a <= 0 or b <= 0 or len(uv) == 0:
         return out
-    c = plane_cells(uv, spacing)
-    iu = np.searchsorted(u_edges, c[:, 0], side="right") - 1
-    iv = np.searchsorted(v_edges, c[:, 1], side="right") - 1
-    ok = (iu >= 0) & (iu < a) & (iv >= 0) & (iv < b)
-    np.add.at(out, (iu[ok], iv[ok]), 1.0)
-    area = np.outer(np.diff(u_edges), np.diff(v_edges))
+    h = float(resolution) if resolution else max(spacing / 3.0, 0.01)
+    u0, v0 = u_edges[0], v_edges[0]
+    nu = max(int(np.ceil((u_edges[-1] - u0) / h)), 1)
+    nv = max(int(np.ceil((v_edges[-1] - v0) / h)), 1)
+    # raster cell centres → rectangle index, or -1 inside the margin / outside the grid
+    du, dv = np.diff(u_edges), np.diff(v_edges)
+    mu, mv = np.minimum(margin, du / 4), np.minimum(margin, dv / 4)
+
+    def cell_owner(edges, n, origin, m):
+        c = origin + (np.arange(n) + 0.5) * h
+        i = np.clip(np.searchsorted(edges, c, side="right") - 1, 0, len(edges) - 2)
+        ok = (c >= edges[i] + m[i]) & (c <= edges[i + 1] - m[i]) & (c >= edges[0]) & (c <= edges[-1])
+        return np.where(ok, i, -1)
+
+    ou, ov = cell_owner(u_edges, nu, u0, mu), cell_owner(v_edges, nv, v0, mv)
+    iu = np.floor((uv[:, 0] - u0) / h).astype(np.int64)
+    iv = np.floor((uv[:, 1] - v0) / h).astype(np.int64)
+    ok = (iu >= 0) & (iu < nu) & (iv >= 0) & (iv < nv)
+    iu, iv, pts = iu[ok], iv[ok], uv[ok]
+
+    def owner(t, edges, m):
+        i = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, len(edges) - 2)
+        return np.where((t >= edges[i] + m[i]) & (t <= edges[i + 1] - m[i]), i, -1)
+
+    # a point counts only for the rectangle that holds it (its own coordinates, not its
+    # raster cell's; and not inside the margin)
+    pu, pv = owner(pts[:, 0], u_edges, mu), owner(pts[:, 1], v_edges, mv)
+    keep = (pu >= 0) & (pv >= 0)
+    iu, iv, pu, pv = iu[keep], iv[keep], pu[keep], pv[keep]
+    k = int(np.ceil(spacing / h))
+    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+    disc = (xx**2 + yy**2) * h * h <= spacing * spacing
+    valid = (ou[:, None] >= 0) & (ov[None, :] >= 0)
+    face = np.where(valid, ou[:, None] * b + ov[None, :], -1)
+    covered = np.zeros(a * b)
+    # discs must not spill into a neighbouring rectangle: dilate the four parity classes
+    # of rectangles (no two of a class touch) separately
+    for cu in (0, 1):
+        for cv in (0, 1):
+            sel = (pu % 2 == cu) & (pv % 2 == cv)
+            if not sel.any():
+                continue
+            grid = np.zeros((nu, nv), dtype=bool)
+            grid[iu[sel], iv[sel]] = True
+            cover = binary_dilation(grid, structure=disc)
+            mine = valid & ((ou[:, None] % 2) == cu) & ((ov[None, :] % 2) == cv) & cover
+            covered += np.bincount(face[mine], minlength=a * b)
+    covered = covered.reshape(a, b)
+    total = np.bincount(face[face >= 0], minlength=a * b).reshape(a, b)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(area > 0, out * spacing**2 / area, 0.0)
+        return np.where(total > 0, covered / np.maximum(total, 1), 0.0)
 
 
 def face_index(points: np.ndarray, normals, polygon: np.ndarray, normal: np.ndarray,
@@ -94,8 +150,9 @@ def face_index(points: np.ndarray, normals, polygon: np.ndarray, normal: np.ndar
     if p2.area <= 0:
         return 0.0
     pts = np.asarray(points)[sel]
-    c = plane_cells(np.column_stack([pts @ u, pts @ v]), spacing)
-    if len(c) == 0:
+    uv = np.column_stack([pts @ u, pts @ v])
+    if len(uv) == 0:
         return 0.0
-    inside = contains_xy(p2, c[:, 0], c[:, 1])
-    return float(inside.sum() * spacing**2 / p2.area)
+    inside = contains_xy(p2, uv[:, 0], uv[:, 1])
+    c = plane_cells(uv[inside], spacing)
+    return float(len(c) * spacing**2 / p2.area)

@@ -29,7 +29,7 @@ from ..pointcloud import PointCloud
 from ..progress import Progress
 from .geometry import box_of
 from .ipof import grid_face_index
-from .params import ManhattanParams, params_from_data
+from .params import ManhattanParams, estimate_spacing, params_from_data
 from .place import (StoreyFrame, detect_levels, estimate_normals_pca, histogram_peaks, storey_chunks,
                     storey_frame)
 from .rules import classify, derive_topology
@@ -40,6 +40,28 @@ log = logging.getLogger(__name__)
 
 
 # --------------------------------------------------------------------------- rule 1: place
+def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyFrame,
+                     params: ManhattanParams, spacing: float) -> bool:
+    """Is the vertical surface at ``position`` a wall, i.e. does it reach a ceiling?
+
+    ``pts`` : (n, 3) points facing ``axis``. Walls run up to a ceiling; shelves, cabinets
+    and tables stop short of it. The surface must cover at least ``min_wall_top_length``
+    (metres, counted in σ-cells along the wall) within ``wall_top_band`` below one of the
+    storey's ceiling levels. (Extension of SPEC.md rule 1, which takes every peak:
+    furniture faces would cut rooms into slices whose common faces look closed.)
+    """
+    near = np.abs(pts[:, axis] - position) <= max(1.5 * params.bin_size, params.shape_buffer / 2)
+    if not near.any():
+        return False
+    q = pts[near]
+    o = 1 - axis
+    for c in frame.ceilings:
+        band = (q[:, 2] >= c - params.wall_top_band) & (q[:, 2] <= c + params.shape_buffer)
+        if np.unique(np.floor(q[band, o] / spacing)).size * spacing >= params.min_wall_top_length:
+            return True
+    return False
+
+
 def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, storey: int,
                  params: ManhattanParams, spacing: float) -> list[Shape]:
     """Place, compute the point-on-face indices, and classify the cuboids of one storey.
@@ -67,6 +89,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
         sel = along[a]
         peaks = histogram_peaks(p[sel, a], np.column_stack([p[sel, o], p[sel, 2]]), params, spacing,
                                 params.min_wall_area)
+        peaks = [pk for pk in peaks if _reaches_ceiling(p[sel], a, pk.position, frame, params, spacing)]
         if len(peaks) < 2:
             raise ReconstructionError(f"storey {storey}: fewer than two wall surfaces facing "
                                       f"{'xy'[a]} (found {len(peaks)}); is the cloud aligned?")
@@ -77,6 +100,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
              storey, nx, ny, nz, len(X), len(Y), np.round(Z, 3).tolist())
 
     # point-on-face index of every face of the grid, plane by plane
+    margin = 2.0 * float(params.noise or 0.0)
     def faces_on(axis, planes, u_edges, v_edges, ucol, vcol):
         out = []
         sel = along[axis]
@@ -86,7 +110,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
         uv = np.column_stack([p[sel, ucol], p[sel, vcol]])[order]
         for w in planes:
             i0, i1 = np.searchsorted(ts, [w - d, w + d])
-            out.append(grid_face_index(uv[i0:i1], u_edges, v_edges, spacing))
+            out.append(grid_face_index(uv[i0:i1], u_edges, v_edges, spacing, margin))
         return np.array(out)
 
     FX = faces_on(0, X, Y, Z, 1, 2)  # (nx+1, ny, nz)
@@ -223,9 +247,11 @@ def _complete_params(xyz, params):
     if params is None:
         return params_from_data(xyz)
     if params.spacing is None:
-        from .params import estimate_spacing
+        params = params.with_(spacing=estimate_spacing(xyz))
+    if params.noise is None:
+        from .params import estimate_noise
 
-        return params.with_(spacing=estimate_spacing(xyz))
+        params = params.with_(noise=estimate_noise(xyz))
     return params
 
 
@@ -296,7 +322,15 @@ def reconstruct_manhattan(cloud: PointCloud, params: Optional[ManhattanParams] =
     seed = int(rng.integers(2**31))
     base = params or ManhattanParams()
     if cloud.normals is None:
-        cloud = estimate_normals(cloud)
+        # PCA needs a neighbourhood of a few point spacings: sparse clouds (mobile
+        # scans) get a wider radius than the segmentation default
+        from ..segmentation import NormalParams
+
+        sigma = estimate_spacing(cloud.xyz, rng=seed)
+        np_ = NormalParams()
+        cloud = estimate_normals(cloud, NormalParams(radius=max(np_.radius, 2.5 * sigma),
+                                                     max_nn=np_.max_nn,
+                                                     orient_to_scanner=np_.orient_to_scanner))
     p(0.1, "Manhattan alignment")
     aligned, T = align_manhattan(cloud, rng=seed)
     p(0.15, "storeys")
@@ -305,7 +339,7 @@ def reconstruct_manhattan(cloud: PointCloud, params: Optional[ManhattanParams] =
     except _RE as e:  # fall back to the grammar's own slab/level analysis
         log.warning("segmentation found no storey (%s); using the grammar's level analysis", e)
         storeys = None
-    if params is None or params.spacing is None:
+    if params is None or params.spacing is None or params.noise is None:
         params = params_from_data(aligned.xyz, base, rng=seed)
     t_pre = time.perf_counter() - t0
     model = reconstruct_grammar(aligned, params, storeys, progress=p.sub(0.2, 1.0), transform=T)

@@ -42,8 +42,16 @@ class ManhattanParams:
     """Two histogram peaks closer than this are one surface (no cuboid thinner), metres."""
     spacing: Optional[float] = None
     """σ of the point-on-face index, metres; None = estimate from the data."""
+    noise: Optional[float] = None
+    """σ_noise of the points across a surface, metres; None = estimate from the data.
+    Point-on-face counts ignore points within 2 σ_noise of a face's edge."""
     min_wall_area: float = 1.5
     """A vertical histogram peak must hold at least this much surface (points × σ²), m²."""
+    wall_top_band: float = 0.5
+    """A wall surface reaches a ceiling: it must have points within this band below a
+    ceiling level (furniture stops short of it), metres."""
+    min_wall_top_length: float = 0.5
+    """...over at least this length along the wall, metres."""
     min_level_area: float = 2.0
     """A floor or ceiling level must hold at least this much surface, m²."""
     min_storey_height: float = 1.8
@@ -99,8 +107,13 @@ def estimate_spacing(xyz: np.ndarray, sample: int = 20000, radius: float = 0.1, 
 
     tree = cKDTree(xyz)
     q = xyz if len(xyz) <= sample else xyz[rng.choice(len(xyz), sample, replace=False)]
-    counts = tree.query_ball_point(q, r=radius, return_length=True).astype(np.float64)
-    rho = np.percentile(np.maximum(counts - 1, 1), percentile) / (np.pi * radius**2)
+    r = radius
+    for _ in range(4):  # widen the ball until it holds enough neighbours to count on
+        counts = tree.query_ball_point(q, r=r, return_length=True).astype(np.float64)
+        if np.percentile(counts, percentile) >= 8:
+            break
+        r *= 2
+    rho = np.percentile(np.maximum(counts - 1, 1), percentile) / (np.pi * r**2)
     return float(1.0 / np.sqrt(rho))
 
 
@@ -135,4 +148,5 @@ def params_from_data(xyz: np.ndarray, base: Optional[ManhattanParams] = None, rn
     noise = estimate_noise(xyz, rng=rng)
     buffer = float(np.clip(max(3 * noise, spacing), 0.03, base.max_wall_thickness / 4))
     bin_size = float(min(np.clip(2 * noise, 0.02, 0.05), base.max_wall_thickness / 2))
-    return replace(base, spacing=spacing, shape_buffer=buffer, bin_size=bin_size)
+    noise = base.noise if base.noise is not None else noise
+    return replace(base, spacing=spacing, shape_buffer=buffer, bin_size=bin_size, noise=noise)
