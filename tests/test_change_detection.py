@@ -145,23 +145,14 @@ def test_new_points_and_redundant_faces(scene):
     assert sum(e["points"] for e in walls) >= 0.95 * truth.sum()
 
 
-def test_misregistered_model_is_fixed_by_icp(scene):
+def test_without_icp_a_shifted_model_reads_as_change(scene):
+    # (ICP recovering 5° yaw + 0.3 m shift is tested on the change_demo preset)
     model, scan = scene
-    wrong = _rot_z(5.0, (0.3, -0.2, 0.0))
-    moved = transform_model(model, wrong)
-    res = detect_changes(moved, scan)
-    # recovered scan->model transform must equal the applied one: check on the scan points
-    pts = scan.xyz[::50]
-    want = pts @ wrong[:3, :3].T + wrong[:3, 3]
-    got = pts @ res.registration.transform[:3, :3].T + res.registration.transform[:3, 3]
-    assert np.linalg.norm(got - want, axis=1).max() < 0.01
-    assert res.registration.residual < 0.01
-    truth = scan.fields["new"] == 1
-    prec, rec = _precision_recall(res.point_type == NEW, truth)
-    assert prec >= 0.97 and rec >= 0.97, (prec, rec)
-    # without ICP the same model reads as massive change (every wall point is "new")
+    moved = transform_model(model, _rot_z(5.0, (0.3, -0.2, 0.0)))
     bad = detect_changes(moved, scan, ChangeParams(registration=RegistrationParams(enabled=False)))
+    truth = scan.fields["new"] == 1
     assert np.mean(bad.point_type == NEW) > 3 * np.mean(truth)
+    assert len(bad.redundant) > 2
 
 
 def test_model_against_its_own_surfaces_has_no_change():
