@@ -434,3 +434,27 @@ def test_real_duplex_ifc2x3(data_dir):
     # the two flats are mirror images: floor area of level 1 and level 2 spaces are similar
     area = [sum(s.area for s in m.surfaces() if s.kind == "floor" and s.storey == k) for k in (1, 2)]
     assert area[0] > 50 and area[1] > 50
+
+
+def test_model_without_storeys_and_odd_shapes(tmp_path):
+    m = hand_model()
+    extra = (
+        Shape("n", "none", Polyhedron.box((20, 0, 0), (21, 1, 1))),                   # ignored
+        Shape("wx", "wall", Polyhedron.box((30, 0, 0), (31, 0.2, 3)), storey=-1),     # in no storey
+        Shape("wi", "wall", Polyhedron.box((0, 0, 0), (1, 0.2, 1)), active=False),    # merged-away part
+        Shape("flat", "slab", Polyhedron(np.zeros((3, 3)), [(0, 1, 2)])),             # no volume
+    )
+    m = m.with_(shapes=m.shapes + extra, storeys=())
+    path = str(tmp_path / "nostoreys.ifc")
+    write_ifc(m, path)
+    assert _errors(path) == []
+    f = ifcopenshell.open(path)
+    ue = ifcopenshell.util.element
+    (storey,) = f.by_type("IfcBuildingStorey")
+    assert storey.Elevation == pytest.approx(-0.3)  # spans the floor slab to the ceiling slab
+    names = {w.Name: ue.get_container(w).is_a() for w in f.by_type("IfcWall")}
+    assert names["wx"] == "IfcBuilding" and "wi" not in names and len(names) == 6
+    assert len(f.by_type("IfcSlab")) == 2
+    r = read_ifc(path)
+    assert len(r.storeys) == 1 and r["wx"].storey == -1 and r["w1"].storey == 0
+    assert "n" not in r and "wi" not in r and "flat" not in r

@@ -148,6 +148,7 @@ class _Writer:
         self.styles = {}
         self.contained = {}  # storey entity id -> list of products
         self.tables = {}  # id(Polyhedron) -> face normals and vertices (see _face_table)
+        self.storey_list = list(model.storeys) or _default_storeys(model)
 
     # ------------------------------------------------------------------ frame
     def _frame(self):
@@ -170,7 +171,7 @@ class _Writer:
                 g = Polyhedron(v, g.faces)
             self.geom[s.id] = g
         self.storey_z = []
-        for st in m.storeys:
+        for st in self.storey_list:
             z = st.floor_z if bake is None else float((bake @ [0.0, 0.0, st.floor_z, 1.0])[2])
             self.storey_z.append(z)
 
@@ -296,8 +297,7 @@ class _Writer:
         self.site, self.building = site, building
 
         self.storeys = []
-        storeys = list(m.storeys)
-        for i, st in enumerate(storeys):
+        for i, st in enumerate(self.storey_list):
             e = api.root.create_entity(f, ifc_class="IfcBuildingStorey", name=st.name or f"Storey {i}")
             e.Elevation = float(st.elevation if st.elevation is not None else self.storey_z[i])
             e.CompositionType = "ELEMENT"
@@ -336,8 +336,19 @@ class _Writer:
             "ModelName": self.model.name or None,
             "Transform": dumps(np.asarray(self.model.transform)),
             "Offset": dumps(np.asarray(self.model.offset)),
-            "StoreyCount": len(self.model.storeys),
+            "StoreyCount": len(self.storey_list),
         })
+
+    def _writable(self, s: Shape) -> bool:
+        """Spaces (active or parts) and active walls, slabs, doors with a closed geometry."""
+        g = s.geometry
+        if len(g.faces) < 4 or len(g.vertices) < 4 or g.volume() <= 0:
+            log.warning("shape %s has no closed geometry: not written", s.id)
+            return False
+        if not s.is_space and not s.active:
+            log.debug("inactive %s %s not written", s.type.value, s.id)
+            return False
+        return True
 
     def _container_of(self, s: Shape):
         if 0 <= s.storey < len(self.storeys):
@@ -363,7 +374,7 @@ class _Writer:
     # ------------------------------------------------------------------ spaces
     def _spaces(self):
         api, f, m = self.api, self.f, self.model
-        spaces = [s for s in m.shapes if s.type in (ShapeType.INTERIOR, ShapeType.EXTERIOR)]
+        spaces = [s for s in m.shapes if s.type in (ShapeType.INTERIOR, ShapeType.EXTERIOR) and self._writable(s)]
         # parents before their parts
         order = {s.id: 0 for s in spaces}
         for s in spaces:
@@ -417,7 +428,7 @@ class _Writer:
             if d.type == ShapeType.DOOR and d.parent is not None:
                 doors_of.setdefault(d.parent, []).append(d)
         for s in m.shapes:
-            if s.type not in (ShapeType.WALL, ShapeType.SLAB):
+            if s.type not in (ShapeType.WALL, ShapeType.SLAB) or not self._writable(s):
                 continue
             g = self.geom[s.id]
             if s.type == ShapeType.WALL:
@@ -478,7 +489,7 @@ class _Writer:
     def _doors(self):
         api, f, m = self.api, self.f, self.model
         for d in m.shapes:
-            if d.type != ShapeType.DOOR:
+            if d.type != ShapeType.DOOR or not self._writable(d):
                 continue
             g = self.geom[d.id]
             e = api.root.create_entity(f, ifc_class="IfcDoor", predefined_type="DOOR", name=d.name or d.id)
@@ -588,6 +599,17 @@ class _Writer:
 
 
 # --------------------------------------------------------------------------- geometry helpers
+def _default_storeys(model: BuildingModel) -> list:
+    """One storey spanning every shape, for a model without storeys."""
+    from ..model import Storey
+
+    shapes = [s for s in model.shapes if s.type != ShapeType.NONE and len(s.geometry.vertices)]
+    if not shapes:
+        return [Storey(0, 0.0, 0.0, "Storey 0")]
+    b = np.array([s.bounds for s in shapes])
+    return [Storey(0, float(b[:, 0, 2].min()), float(b[:, 1, 2].max()), "Storey 0")]
+
+
 def _is_space_entity(e) -> bool:
     return e.is_a("IfcSpace") or e.is_a("IfcExternalSpatialElement")
 
