@@ -162,3 +162,93 @@ def read_room_scan(path):
     vp = [float(v) for v in header.get("VIEWPOINT", ["0"] * 3)[:3]]
     return PointCloud(xyz=xyz[ok], scanner_positions=np.array([vp]), source=str(path),
                       dropped_nonfinite=int((~ok).sum()))
+
+
+# ----------------------------------------------------------------------------- evaluation
+def truth_walls(truth, transform, cloud_aligned, label_wall=0, band=0.03, grid=0.1):
+    """Inner wall faces of the true rooms in the aligned frame with their visible share.
+
+    Returns a list of (normal (3,), offset, polygon (k, 3), visible share 0..1); the visible
+    share is the fraction of the face's 10 cm (length × height) bins holding wall-labelled
+    points within ``band`` of it.
+    """
+    from engine.model import ShapeType
+
+    inv = np.linalg.inv(transform)
+    r, t = inv[:3, :3], inv[:3, 3]
+    lab = cloud_aligned.fields.get("label")
+    pts = cloud_aligned.xyz if lab is None else cloud_aligned.xyz[lab == label_wall]
+    out = []
+    for s in truth.surfaces(types=(ShapeType.INTERIOR,)):
+        if s.kind != "wall":
+            continue
+        poly = s.polygon @ r.T + t
+        n = s.normal @ r.T
+        off = float(n @ poly[0])
+        u = np.cross([0, 0, 1.0], n)
+        u /= np.linalg.norm(u)
+        tu = poly @ u
+        z = poly[:, 2]
+        near = np.abs(pts @ n - off) <= band
+        q = pts[near]
+        a = q @ u
+        ok = (a >= tu.min()) & (a <= tu.max()) & (q[:, 2] >= z.min()) & (q[:, 2] <= z.max())
+        nt = max(int(np.ceil((tu.max() - tu.min()) / grid)), 1)
+        nz = max(int(np.ceil((z.max() - z.min()) / grid)), 1)
+        ti = np.minimum(((a[ok] - tu.min()) / grid).astype(int), nt - 1)
+        zi = np.minimum(((q[ok, 2] - z.min()) / grid).astype(int), nz - 1)
+        vis = len(np.unique(ti * nz + zi)) / (nt * nz)
+        out.append((n, off, poly, vis))
+    return out
+
+
+def match_planes(planes, walls, max_angle_deg, max_dist):
+    """Which visible (≥ 50 %) true walls have a plane within the angle and the distance
+    (measured at the wall's centre, and the plane's support must overlap the wall), and
+    which planes match no true wall. Returns (matched flags for visible walls, ids of
+    unmatched planes)."""
+    used = set()
+    flags = []
+    for n, off, poly, vis in walls:
+        c = poly.mean(axis=0)
+        u = np.cross([0, 0, 1.0], n)
+        tu = poly @ u
+        ok = False
+        for p in planes:
+            ang = np.degrees(np.arccos(min(1.0, abs(float(p.normal @ n)))))
+            if ang > max_angle_deg or abs(p.distance(c)) > max_dist:
+                continue
+            seg_t = p.segment @ u[:2]
+            if min(seg_t.max(), tu.max()) - max(seg_t.min(), tu.min()) <= 0:
+                continue
+            used.add(p.id)
+            ok = True
+        if vis >= 0.5:
+            flags.append(ok)
+    # a plane matches a true surface when it is within the tolerances of any true wall
+    unmatched = [p.id for p in planes if p.id not in used]
+    return flags, unmatched
+
+
+def room_coverage(cc, truth, transform, storey=0):
+    """For every true room: (name, covered share of its floor area by the union of the cells
+    lying mostly inside it, Hausdorff distance between that union and the room, metres)."""
+    import shapely
+    from shapely.geometry import Polygon
+
+    inv = np.linalg.inv(transform)
+    out = []
+    cells = [Polygon(c.polygon) for c in cc.cells_of_storey(cc.storeys[storey].index) if c.layer == 0]
+    for s in truth.spaces:
+        if s.storey != storey:
+            continue
+        fp = s.footprint()
+        p3 = np.c_[fp, np.zeros(len(fp))] @ inv[:3, :3].T + inv[:3, 3]
+        room = Polygon(p3[:, :2])
+        parts = [c for c in cells if c.intersection(room).area > 0.5 * c.area]
+        if not parts:
+            out.append((s.name, 0.0, np.inf))
+            continue
+        u = shapely.union_all(parts)
+        out.append((s.name, u.intersection(room).area / room.area, u.hausdorff_distance(room)))
+    return out

@@ -11,7 +11,8 @@ from .params import (AlignParams, CellParams, ClassifyParams, CleanParams, Norma
                      PreprocessParams, StoreyParams)
 from .storeys import Layer, detect_layers, detect_storeys
 from .planes import Plane, extract_planes
-from .cells import Cell, CellComplex, CellFace, decompose_cells, is_structural_wall, wall_segments
+from .cells import (Cell, CellComplex, CellFace, ceiling_levels, decompose_cells, is_structural_wall,
+                    wall_segments)
 from .pipeline import Preprocessed, preprocess
 
 __all__ = [
@@ -22,6 +23,6 @@ __all__ = [
     "PreprocessParams", "StoreyParams",
     "Layer", "detect_layers", "detect_storeys",
     "Plane", "extract_planes",
-    "Cell", "CellComplex", "CellFace", "decompose_cells", "is_structural_wall", "wall_segments",
+    "Cell", "CellComplex", "CellFace", "ceiling_levels", "decompose_cells", "is_structural_wall", "wall_segments",
     "Preprocessed", "preprocess",
 ]

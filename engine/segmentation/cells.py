@@ -3,8 +3,9 @@
 Method (per storey)
 -------------------
 1. *Wall lines.* Every wall plane of the storey with at least ``min_wall_area`` of support
-   spanning at least ``min_wall_height_fraction`` of the storey height (furniture sides are
-   lower) is intersected with the floor: a 2D segment, the extent of its supporting points
+   spanning at least ``min_wall_height_fraction`` of the storey height and reaching within
+   ``max_top_gap`` of a ceiling (:func:`is_structural_wall`; furniture sides and tall
+   shelves fail) is intersected with the floor: a 2D segment, the extent of its supporting points
    along the wall line.
 2. *Extension, only as far as needed.* Segments are **not** extended to infinite lines
    (that multiplies the cells: n walls give O(n²) faces). Each end of a segment is
@@ -20,8 +21,8 @@ Method (per storey)
    (``shapely.ops.polygonize``); faces smaller than ``min_cell_area`` are merged into the
    neighbour they share the longest edge with.
 4. *Extrusion.* The z levels of a storey are its floor and every ceiling height found
-   among the horizontal planes (planes at least ``min_ceiling_height`` above the floor with
-   ``min_horizontal_area_fraction`` of the footprint, within 0.1 m merged) — rooms of
+   among the horizontal planes (:func:`ceiling_levels`: planes at least
+   ``min_ceiling_height`` above the floor with ``min_ceiling_area``, within 0.1 m merged) — rooms of
    different ceiling heights get cells of matching heights. Each 2D face is extruded
    between consecutive levels: one 3D cell per (face, layer).
 5. *Adjacency.* Two cells of one layer sharing an edge longer than ``min_face_length`` are
@@ -48,7 +49,8 @@ from ..progress import Progress
 from .params import CellParams
 from .planes import Plane
 
-__all__ = ["Cell", "CellFace", "CellComplex", "decompose_cells", "wall_segments", "is_structural_wall"]
+__all__ = ["Cell", "CellFace", "CellComplex", "decompose_cells", "wall_segments", "is_structural_wall",
+           "ceiling_levels"]
 
 log = logging.getLogger(__name__)
 
@@ -236,14 +238,43 @@ class CellComplex:
 
 
 # ----------------------------------------------------------------------------- helpers
-def is_structural_wall(pl: Plane, storey: Storey, params: CellParams = CellParams()) -> bool:
+def ceiling_levels(planes: Sequence[Plane], storey: Storey, params: CellParams = CellParams()) -> list:
+    """Ceiling heights of a storey, ascending (metres): ``storey.ceiling_z`` and every
+    horizontal plane of the storey at least ``min_ceiling_height`` above the floor, at most
+    ``ceiling_margin`` above the storey ceiling, with ``min_ceiling_area``; heights closer
+    than 0.1 m are one level."""
+    zs = sorted([storey.ceiling_z] + [
+        pl.offset for pl in planes
+        if pl.kind == "horizontal" and pl.storey in (storey.index, -1)
+        and storey.floor_z + params.min_ceiling_height <= pl.offset <= storey.ceiling_z + params.ceiling_margin
+        and pl.area >= params.min_ceiling_area])
+    levels = []
+    for z in zs:
+        if levels and z - levels[-1] < _LEVEL_MERGE:
+            if z == storey.ceiling_z:
+                levels[-1] = z
+            continue
+        levels.append(z)
+    return levels
+
+
+def is_structural_wall(pl: Plane, storey: Storey, params: CellParams = CellParams(),
+                       levels: Optional[Sequence[float]] = None) -> bool:
     """True when a wall plane is cut into the storey's floor: at least ``min_wall_area`` of
-    support spanning ``min_wall_height_fraction`` of the storey height (not furniture)."""
+    support reaching within ``max_top_gap`` of one of the ceiling ``levels`` and spanning
+    ``min_wall_height_fraction`` of that ceiling's height above the floor (default: ``storey.ceiling_z``; pass
+    :func:`ceiling_levels` for rooms of several heights). Furniture fails one of these."""
     if pl.kind != "wall" or pl.storey not in (storey.index, -1):
         return False
-    h = max(storey.ceiling_z - storey.floor_z, 1e-9)
-    span = min(pl.z_range[1], storey.ceiling_z) - max(pl.z_range[0], storey.floor_z)
-    return pl.area >= params.min_wall_area and span >= params.min_wall_height_fraction * h
+    levels = [storey.ceiling_z] if levels is None else levels
+    if pl.area < params.min_wall_area:
+        return False
+    for z in levels:  # a ceiling the wall reaches, and a wall spanning enough of its height
+        if pl.z_range[1] >= z - params.max_top_gap:
+            span = min(pl.z_range[1], z) - max(pl.z_range[0], storey.floor_z)
+            if span >= params.min_wall_height_fraction * max(z - storey.floor_z, 1e-9):
+                return True
+    return False
 
 
 def wall_segments(walls: Sequence[Plane], params: CellParams = CellParams()) -> np.ndarray:
@@ -477,7 +508,8 @@ def decompose_cells(cloud: PointCloud, planes: Sequence[Plane], storeys: Sequenc
         p(si / max(len(storeys), 1), f"cells of storey {st.index}")
         idx = st.index
         sp = [pl for pl in planes if pl.storey in (idx, -1)]
-        walls = [pl for pl in sp if pl.kind == "wall" and is_structural_wall(pl, st, params)]
+        ceilings = ceiling_levels(sp, st, params)
+        walls = [pl for pl in sp if is_structural_wall(pl, st, params, ceilings)]
         if not walls:
             raise ReconstructionError(f"{name}: storey {idx} has no wall plane to partition its floor")
         zin = (xyz[:, 2] >= st.floor_z - 0.1) & (xyz[:, 2] <= st.ceiling_z + 0.1)
@@ -497,19 +529,8 @@ def decompose_cells(cloud: PointCloud, planes: Sequence[Plane], storeys: Sequenc
         polys = _split_holes(_merge_slivers(polys, params.min_cell_area))
         if not polys:
             raise ReconstructionError(f"{name}: the wall lines of storey {idx} enclose no cell")
-        # z levels: floor + ceilings
         hor = [pl for pl in sp if pl.kind == "horizontal"]
-        footprint = ext.area
-        ceil_z = sorted(pl.offset for pl in hor
-                        if pl.offset >= st.floor_z + params.min_ceiling_height
-                        and pl.offset <= st.ceiling_z + params.ceiling_margin
-                        and pl.area >= params.min_horizontal_area_fraction * footprint)
-        levels = []
-        for z in ceil_z + [st.ceiling_z]:
-            if levels and z - levels[-1] < _LEVEL_MERGE:
-                continue
-            levels.append(z)
-        levels = [st.floor_z] + sorted(levels)
+        levels = [st.floor_z] + ceilings
         # coverage grids of horizontal points per level
         origin = lo
         dims = (int(np.ceil((hi[0] - lo[0]) / _GRID)) + 1, int(np.ceil((hi[1] - lo[1]) / _GRID)) + 1)

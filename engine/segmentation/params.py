@@ -138,10 +138,17 @@ class PlaneParams:
     """Cap of the adaptive inlier band, metres (below half the thinnest wall)."""
     iterations: int = 300
     """RANSAC hypotheses per plane."""
+    score_sample: int = 3000
+    """Hypotheses are scored on a random sample of at most this many points of the tile's
+    pool (the chosen one is then refined on all of them)."""
     min_points: int = 60
     """A plane needs at least this many supporting points (of the working cloud)."""
     min_extent: float = 0.3
     """A plane's support must span at least this in its longest direction, metres."""
+    min_fill: float = 0.15
+    """A plane's support must occupy at least this share of its bounding rectangle on the
+    plane (10 cm cells); occluded walls fill 0.3 and more, chance alignments of clutter
+    much less."""
     max_planes_per_tile: int = 40
     """Stop searching a tile after this many planes."""
     angle_tolerance: float = THETA
@@ -150,11 +157,15 @@ class PlaneParams:
     normal_agreement: float = math.radians(25.0)
     """A point supports a plane only when its normal is within this angle of the plane's
     (sign ignored), radians; keeps perpendicular walls' points apart at corners."""
-    merge_angle: float = THETA
-    """Global refinement: merge planes closer than this in angle, radians."""
+    merge_angle: float = math.radians(4.0)
+    """Global refinement: merge planes closer than this in angle, radians. Departure from
+    SPEC.md (θ = 10°): non-Manhattan plans have walls meeting at 6–7° (syn_house), which
+    θ = 10° merged into one bent plane; locally fitted pieces of one wall agree within 1°."""
     merge_distance: float = 0.04
     """... and whose supports lie within this of each other (median point-to-plane distance
-    in both directions), metres (≤ the data's nominal accuracy; SPEC.md §3.1)."""
+    in both directions), metres (≤ the data's nominal accuracy; SPEC.md §3.1). The larger
+    of the two planes' adaptive inlier bands is used instead when it is wider (noisy mobile
+    data, where the tails of one wall's noise otherwise form parallel planes ±2σ away)."""
     max_merge_rounds: int = 50
     """Safety bound on the refinement loop (it stops earlier when nothing merges)."""
 
@@ -172,11 +183,15 @@ class CellParams:
     """The building's extent (the box around the storey's points) is grown by this, metres."""
     min_cell_area: float = 0.02
     """Slivers below this area (m²) are merged into their longest-shared-edge neighbour."""
-    min_wall_area: float = 1.0
+    min_wall_area: float = 0.5
     """Wall planes with less covered area (m²) are not cut into the floor."""
     min_wall_height_fraction: float = 0.5
-    """Wall planes whose support spans less than this share of the storey height (furniture
-    sides, low cupboards) are not cut into the floor."""
+    """Wall planes whose support spans less than this share of the height of the ceiling
+    they reach (furniture sides, low cupboards) are not cut into the floor."""
+    max_top_gap: float = 0.25
+    """... nor those whose support's top stays more than this below every ceiling level of
+    the storey (tall shelves and cabinets stop short of the ceiling; walls reach it),
+    metres."""
     min_ceiling_height: float = 1.8
     """Horizontal planes at least this far above the floor are ceilings that set the z
     levels of the cells, metres (lower ones are furniture tops)."""
@@ -192,9 +207,8 @@ class CellParams:
     coverage_bin: float = 0.1
     """Length of the bins along a shared face used to measure its coverage by the wall
     plane's points, metres."""
-    min_horizontal_area_fraction: float = 0.05
-    """A horizontal plane inside a storey splits the cells' z range only when its area is at
-    least this share of the storey footprint."""
+    min_ceiling_area: float = 2.0
+    """A horizontal plane needs this much covered area (m²) to be a ceiling level."""
 
 
 @dataclass(frozen=True)

@@ -16,13 +16,15 @@ In each tile a seeded RANSAC finds planes one after the other:
   noise (``noise_factor`` × 1.4826·MAD of the residuals, between ``distance_threshold`` and
   ``max_distance_threshold`` — so mobile scans with σ = 2 cm keep all their points) and the
   fit is repeated;
-- it is kept when it has ``min_points`` inliers spanning ``min_extent``; its inliers leave
-  the tile's pool.
+- it is kept when it has ``min_points`` inliers spanning ``min_extent`` and filling at least
+  ``min_fill`` of their bounding rectangle (scattered clutter that lines up by chance does
+  not); its inliers leave the tile's pool.
 
 *Global refinement.* Two planes of the same kind merge when the angle between them is below
 ``merge_angle`` and the median distance of each one's supporting points to the other is
 below ``merge_distance`` (the thesis uses the minimum distance; the median is the robust
-choice SPEC.md allows). Merged planes are refitted on the union of their supports; rounds
+choice SPEC.md allows; for noisy data twice the planes' adaptive band, capped at
+``max_distance_threshold``, replaces ``merge_distance`` when larger). Merged planes are refitted on the union of their supports; rounds
 repeat until nothing merges. Finally every unassigned point of the same class within a
 plane's band (and agreeing normal) joins the nearest plane, and the planes are refitted.
 
@@ -156,7 +158,11 @@ def _finish(pid: int, kind: str, normal, offset, support, xyz, storey, band) -> 
         seg = np.array([pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)])
         coords = pts[:, :2]
     q = np.floor(coords / _AREA_CELL).astype(np.int64)
-    area = len(np.unique(q, axis=0)) * _AREA_CELL ** 2 if len(q) else 0.0
+    if len(q):
+        q -= q.min(axis=0)
+        area = len(np.unique(q[:, 0] * (q[:, 1].max() + 1) + q[:, 1])) * _AREA_CELL ** 2
+    else:
+        area = 0.0
     return Plane(id=pid, kind=kind, normal=normal, offset=float(offset), support=np.asarray(support, np.int64),
                  storey=storey, rms=float(np.sqrt(np.mean(res ** 2))) if len(res) else 0.0, band=float(band),
                  segment=seg, z_range=np.array([pts[:, 2].min(), pts[:, 2].max()]), area=float(area))
@@ -185,6 +191,21 @@ def _refine(kind, normal, offset, pts, nrm, params: PlaneParams):
     return normal, offset, inl, band
 
 
+def _fill(kind, normal, pts) -> float:
+    """Share of the support's bounding rectangle (on the plane) its points occupy, on the
+    ``_AREA_CELL`` grid: near 1 for a wall, tiny for points of scattered objects that
+    happen to line up."""
+    if kind == "wall":
+        u = np.array([-normal[1], normal[0]])
+        coords = np.c_[pts[:, :2] @ u, pts[:, 2]]
+    else:
+        coords = pts[:, :2]
+    q = np.floor(coords / _AREA_CELL).astype(np.int64)
+    q -= q.min(axis=0)
+    dims = q.max(axis=0) + 1
+    return len(np.unique(q[:, 0] * dims[1] + q[:, 1])) / float(dims[0] * dims[1])
+
+
 def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng):
     """Planes of one tile: list of (normal, offset, local inlier indices, band)."""
     out = []
@@ -208,17 +229,18 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng):
             i = rng.integers(len(P), size=h)
             hn = np.tile([0.0, 0.0, 1.0], (h, 1))
             ho = P[i, 2]
-        # score in chunks to bound memory: (hypotheses, points)
-        best, best_count = None, -1
-        chunk = max(1, int(4_000_000 // max(len(P), 1)))
-        for s in range(0, len(hn), chunk):
-            dist = np.abs(hn[s:s + chunk] @ P.T - ho[s:s + chunk, None])
-            agree = np.abs(hn[s:s + chunk] @ N.T) >= cos_agree
-            cnt = np.sum((dist <= params.distance_threshold) & agree, axis=1)
-            k = int(np.argmax(cnt))
-            if cnt[k] > best_count:
-                best_count, best = int(cnt[k]), s + k
-        if best_count < params.min_points:
+        # score every hypothesis on a random sample of the pool (the count is an estimate;
+        # the refinement below uses all points)
+        if len(P) > params.score_sample:
+            sidx = rng.choice(len(P), params.score_sample, replace=False)
+            SP, SN = P[sidx], N[sidx]
+        else:
+            SP, SN = P, N
+        dist = np.abs(hn @ SP.T - ho[:, None])
+        agree = np.abs(hn @ SN.T) >= cos_agree
+        cnt = np.sum((dist <= params.distance_threshold) & agree, axis=1)
+        best = int(np.argmax(cnt))
+        if cnt[best] * len(P) / len(SP) < params.min_points:
             break
         normal, offset, inl, band = _refine(kind, hn[best], float(ho[best]), P, N, params)
         if inl.sum() < params.min_points:
@@ -230,8 +252,9 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng):
             ext = t.max() - t.min()
         else:
             ext = float(np.max(sup[:, :2].max(axis=0) - sup[:, :2].min(axis=0)))
-        if ext < params.min_extent:
+        if ext < params.min_extent or _fill(kind, normal, sup) < params.min_fill:
             # drop the hypothesis' inliers from the pool anyway so the search moves on
+            # (they may still join a plane in the final assignment)
             pool = pool[~inl]
             continue
         out.append((normal, offset, pool[inl], band))
@@ -271,7 +294,8 @@ def _merge_round(planes_raw, xyz, nrm, params: PlaneParams, rng):
             continue
         dab = np.median(np.abs(samples[a] @ normals[b] - offsets[b]))
         dba = np.median(np.abs(samples[b] @ normals[a] - offsets[a]))
-        if max(dab, dba) < params.merge_distance:
+        band = max(planes_raw[a][5], planes_raw[b][5])
+        if max(dab, dba) < max(params.merge_distance, min(2.0 * band, params.max_distance_threshold)):
             ra, rb = find(a), find(b)
             if ra != rb:
                 parent[rb] = ra
