@@ -543,3 +543,23 @@ def test_pts_with_two_scan_blocks(tmp_path, monkeypatch):
     with pytest.raises(FormatError) as info:
         read_point_cloud(path)
     assert "block 2" in str(info.value) and "250" in str(info.value) and "200" in str(info.value)
+
+
+def test_bench_discovers_bench_io_and_writes_json(tmp_path, monkeypatch):
+    import json
+
+    import bench.__main__ as runner
+    import bench.bench_io as bench_io
+
+    assert runner.discover()["io"] == "bench.bench_io"
+    monkeypatch.setattr(bench_io, "QUICK_SIZES", (20_000,))
+    assert runner.main(["--out", str(tmp_path), "--only", "io", "--quick"]) == 0
+    payload = json.loads((tmp_path / "io.json").read_text())
+    assert payload["status"] == "ok" and payload["quick"] is True
+    read = payload["results"]["read"]
+    assert set(read) == {"ply_f8_20000", "ply_f4_20000", "las_20000", "laz_20000"}
+    assert all(r["points"] == 20_000 and r["points_per_s"] > 0 for r in read.values())
+    mem = payload["results"]["memory"]["ply_f8_20000"]
+    assert mem["peak_rss_mb"] >= mem["baseline_rss_mb"] > 0
+    with pytest.raises(SystemExit):
+        runner.main(["--out", str(tmp_path), "--only", "nosuch"])
