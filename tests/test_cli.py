@@ -1,0 +1,70 @@
+"""The `indoor` command line: wiring, convert end to end, errors per file in a batch."""
+import json
+import os
+
+import pytest
+
+from engine import BuildingModel, __version__
+from engine.cli import build_parser, main
+
+
+def test_help_lists_every_command(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    for cmd in ("info", "convert", "evaluate", "changes", "synth"):
+        assert cmd in out
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert __version__ in capsys.readouterr().out
+
+
+def test_unknown_method_is_rejected():
+    with pytest.raises(SystemExit) as e:
+        build_parser().parse_args(["convert", "x.ply", "-o", "out", "--method", "magic"])
+    assert e.value.code == 2
+
+
+@pytest.fixture(scope="module")
+def small_scan(tmp_path_factory):
+    from engine.io import write_ply
+    from engine.synthetic import preset
+
+    scene = preset("office_mw", seed=3, target_points=120_000)
+    d = tmp_path_factory.mktemp("scan")
+    path = d / "office.ply"
+    write_ply(path, scene.cloud)
+    return str(path), scene
+
+
+def test_convert_batch_writes_outputs_and_names_the_bad_file(small_scan, tmp_path, capsys):
+    scan, scene = small_scan
+    bad = tmp_path / "broken.ply"
+    bad.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000\n"
+                    b"property float x\nproperty float y\nproperty float z\nend_header\n" + b"\0" * 12)
+    out = tmp_path / "out"
+    code = main(["convert", scan, str(bad), "-o", str(out), "--method", "manhattan", "--json"])
+    captured = capsys.readouterr()
+    assert code == 1  # one file failed
+    result = json.loads(captured.out)
+    assert [f["file"] for f in result["failed"]] == [str(bad)]
+    assert "broken.ply" in captured.err
+    assert sorted(os.listdir(out)) == ["office.ifc", "office.json"]  # nothing for the bad file
+    model = BuildingModel.from_json(out / "office.json")
+    assert model.spaces and model.walls  # quality is the grammar tests' business
+    report = json.loads((out / "office.json").read_text())["report"]
+    assert report["summary"] == model.summary()
+    assert report["provenance"]["method"] == "manhattan"
+    assert {"id", "floor_area_m2", "height_m"} <= set(report["spaces"][0])
+    assert (out / "office.ifc").read_text()[:20].startswith("ISO-10303-21")
+
+
+def test_convert_missing_file_exit_code(tmp_path, capsys):
+    code = main(["convert", str(tmp_path / "nope.ply"), "-o", str(tmp_path / "o")])
+    assert code == 1
+    assert "nope.ply" in capsys.readouterr().err
+    assert not (tmp_path / "o" / "nope.json").exists()
