@@ -69,22 +69,37 @@ def check_file(path) -> str:
     return path
 
 
+_COLOUR_BLOCK_ROWS = 1 << 20
+"""Rows converted at a time by :func:`colors_to_u8`, bounding its temporary memory."""
+
+
 def colors_to_u8(c: np.ndarray) -> np.ndarray:
     """Convert colour values to (n, 3) uint8.
 
-    uint8 is kept; integers above 255 anywhere mean 16-bit colour, scaled by 255/65535;
-    floats all within [0, 1] with some fraction are scaled by 255; anything else is rounded
-    and clipped to 0–255.
+    uint8 is kept; integers above 255 anywhere mean 16-bit colour, scaled by 255/65535 and
+    rounded (integer arithmetic, in blocks, so 10M points need no float64 copy); floats all
+    within [0, 1] with some fraction are scaled by 255; anything else is rounded and clipped
+    to 0–255.
     """
     c = np.asarray(c)
     if c.dtype == np.uint8:
         return c
+    out = np.empty(c.shape, np.uint8)
+    if c.size == 0:
+        return out
+    if c.dtype.kind in "iu":
+        sixteen = c.max() > 255
+        for s in range(0, len(c), _COLOUR_BLOCK_ROWS):
+            b = np.clip(c[s:s + _COLOUR_BLOCK_ROWS], 0, 65535).astype(np.uint32)
+            out[s:s + _COLOUR_BLOCK_ROWS] = (b * 255 + 32767) // 65535 if sixteen else np.minimum(b, 255)
+        return out
     v = np.nan_to_num(c.astype(np.float64))
-    if v.size and v.max() > 255:
+    if v.max() > 255:
         v = v * (255.0 / 65535.0)
-    elif c.dtype.kind == "f" and v.size and v.max() <= 1.0 and np.any(v != np.round(v)):
+    elif v.max() <= 1.0 and np.any(v != np.round(v)):
         v = v * 255.0
-    return np.clip(np.round(v), 0, 255).astype(np.uint8)
+    out[...] = np.clip(np.round(v), 0, 255)
+    return out
 
 
 def suspect_units(xyz_extent: np.ndarray, params: ReadParams = DEFAULT_PARAMS) -> Optional[str]:

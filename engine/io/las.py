@@ -116,5 +116,5 @@ def read_las(path, *, progress=None, should_stop=None, params: Optional[ReadPara
     fields["classification"] = cls
     colors = None
     if has_rgb:
-        colors = colors_to_u8(rgb) if rgb.size and rgb.max() > 255 else rgb.astype(np.uint8)
+        colors = colors_to_u8(rgb)  # 16-bit scaled; 8-bit values in 16-bit fields kept
     return finish_cloud(path, xyz, colors=colors, intensity=inten, fields=fields, params=params)
