@@ -219,7 +219,20 @@ def test_truncated_las(tmp_path):
     las.write(str(p))
     data = p.read_bytes()
     p.write_bytes(data[: len(data) - 5000])
-    _raises(FormatError, p)
+    _raises(FormatError, p, "truncated", "1,000 points", "only 750")
+    z = tmp_path / "cut.laz"
+    las.write(str(z))
+    data = z.read_bytes()
+    z.write_bytes(data[: len(data) // 2])
+    _raises(FormatError, z, "truncated")
+
+
+def test_e57_without_scans(tmp_path):
+    pye57 = pytest.importorskip("pye57")
+    p = tmp_path / "none.e57"
+    e = pye57.E57(str(p), mode="w")
+    e.close()
+    _raises(FormatError, p, "no scans")
 
 
 def test_every_error_is_an_indoor_error(tmp_path):
