@@ -10,9 +10,9 @@ for some, model variants:
 * ``unscanned_room`` — a corridor with four rooms, one never scanned (its door closed);
 * ``syn_house`` — non-Manhattan: a common room, three private rooms and an open space;
 * ``hexagon_hall`` — a hexagonal hall with four small side rooms;
-* ``eval_demo`` — SPEC.md §4: a 6 m × 9 m × 2.5 m room plus a corridor; variants
-  ``inacc`` (outer walls 5 cm outwards), ``incomp`` (the corridor missing), ``incorr``
-  (an extra room);
+* ``eval_demo`` — SPEC.md §4: a 6 m × 9 m × 2.5 m room plus a 1.8 m wide corridor;
+  variants ``inacc`` (outer walls 5 cm outwards), ``incomp`` (the corridor missing),
+  ``incorr`` (an extra 4 m × 6 m room);
 * ``change_demo`` — SPEC.md §5: ``truth`` is the old model, the cloud scans the changed
   building (two new walls around a storage room, one wall removed between two offices);
   ``cloud.fields["new"]`` is 1 on the new walls; ``variants["changed"]`` is the changed
@@ -206,15 +206,29 @@ _EVAL_T = 0.2
 """Interior wall thickness of eval_demo, metres."""
 
 
+_EVAL_CORRIDOR = 1.8
+"""Width of eval_demo's corridor, metres (with the 6 m x 9 m room, the wall areas give
+ratios close to the thesis's Fig. 5.10, see :func:`_eval_demo_plan`)."""
+
+
 def _eval_demo_plan(extra_room=False, without_corridor=False, grow=0.0):
+    """SPEC.md §4 demonstration: Room 1 (6 m x 9 m x 2.5 m) and a 1.8 m x 9 m corridor along
+    its long side, one door between them.
+
+    Interior wall-face areas: room 75 m², corridor 54 m², of which 2 x 22.5 m² face each
+    other. Moving the outer faces out (``grow`` = 0.05, "inacc") keeps 45/129 = 0.35 of
+    the wall area in place (thesis: ≈0.38); leaving out the corridor ("incomp") keeps
+    75/129 = 0.58 (thesis: ≈0.62); the extra 4 m x 6 m room ("incorr") adds 50 m², so the
+    true share of the source is 129/179 = 0.72 (thesis: ≈0.72).
+    """
     t = _EVAL_T
     rooms = [Room("Room 1", _rect(0, 0, 6, 9), furnished=True)]
     doors = []
     if not without_corridor:
-        rooms.append(Room("Corridor", _rect(6 + t, -1.5, 8 + t, 10.5), furnished=False))
+        rooms.append(Room("Corridor", _rect(6 + t, 0, 6 + t + _EVAL_CORRIDOR, 9), furnished=False))
         doors.append(Door(("Room 1", "Corridor"), 0.5))
     if extra_room:
-        rooms.append(Room("Room 2", _rect(-t - 5, 1.5, -t, 7.5)))
+        rooms.append(Room("Room 2", _rect(-t - 4, 1.5, -t, 7.5)))
         doors.append(Door(("Room 1", "Room 2"), 0.5))
     if grow:
         rooms = _grow_outer(rooms, grow, t)

@@ -159,7 +159,7 @@ class _MeshBuilder:
     def quad(self, a, b, c, d, label, wall=-1, room=-1):
         self.add([a, b, c, d], [[0, 1, 2], [0, 2, 3]], label, wall, room)
 
-    def polygon(self, poly, z, label, room=-1):
+    def polygon(self, poly, z, label, room=-1, wall=-1):
         tris = shapely.constrained_delaunay_triangles(poly)
         vs = []
         for tri in getattr(tris, "geoms", []):
@@ -167,7 +167,7 @@ class _MeshBuilder:
             vs.append(np.column_stack([c, np.full(3, z)]))
         if vs:
             v = np.vstack(vs)
-            self.add(v, np.arange(len(v)).reshape(-1, 3), label, -1, room)
+            self.add(v, np.arange(len(v)).reshape(-1, 3), label, wall, room)
 
     def box(self, footprint, z0, z1, label):
         c = np.asarray(footprint.exterior.coords)[:4]
@@ -256,7 +256,7 @@ def build_scene_mesh(plan: FloorPlan, geometry: Optional[PlanGeometry] = None, *
         c = np.asarray(fp.exterior.coords)[:4]
         for a, b in ((1, 2), (3, 0)):
             mb.quad([*c[a], z0], [*c[b], z0], [*c[b], zh], [*c[a], zh], LABEL_WALL, w)
-        mb.polygon(fp, zh, LABEL_WALL)
+        mb.polygon(fp, zh, LABEL_WALL, wall=w)
         mb.polygon(fp, z0, LABEL_FLOOR)
     if clutter:
         for item in plan.clutter:
