@@ -10,7 +10,8 @@ import ifcopenshell.geom  # noqa: E402
 import ifcopenshell.util.element  # noqa: E402
 import ifcopenshell.validate  # noqa: E402
 
-from engine import BuildingModel, FormatError, InputError, Polyhedron, Provenance, Relation, Shape, Storey  # noqa: E402
+from engine import (BuildingModel, FormatError, InputError, Polyhedron, Provenance, Relation,  # noqa: E402
+                    Shape, Storey)
 from engine.ifc import IfcWriteParams, read_ifc, read_mesh, read_reference, write_ifc  # noqa: E402
 
 H = 2.6  # storey height of the hand-built models, m
@@ -31,10 +32,10 @@ def hand_model(transform=None, offset=(0.0, 0.0, 0.0)) -> BuildingModel:
     """
     r1 = Shape("r1", "interior", Polyhedron.box((0, 0, 0), (4, 4, H)), name="Room 1", terminal=True,
                support={"ipof_top": 0.93, "coverage": 0.81}, log=("split x", "interior: ipof 0.93"))
-    p1 = Shape("r2a", "interior", Polyhedron.box((4.2, 0, 0), (6.5, 4, H)), name="", active=False, parent="r2")
+    p1 = Shape("r2a", "interior", Polyhedron.box((4.2, 0, 0), (6.5, 4, H)), active=False, parent="r2")
     p2 = Shape("r2b", "interior", Polyhedron.box((6.5, 0, 0), (9, 4, H)), name="", active=False, parent="r2")
-    r2 = Shape("r2", "interior", Polyhedron.box((4.2, 0, 0), (9, 4, H)), name="Room 2", children=("r2a", "r2b"),
-               support={"ipof_top": 0.88})
+    r2 = Shape("r2", "interior", Polyhedron.box((4.2, 0, 0), (9, 4, H)), name="Room 2",
+               children=("r2a", "r2b"), support={"ipof_top": 0.88})
     # corridor: an L-shaped prism (non-rectangular footprint)
     cor = Shape("c", "interior", Polyhedron.prism([(0, 4.2), (9, 4.2), (9, 6), (3, 6), (3, 7), (0, 7)], 0, H),
                 name="Corridor")
@@ -184,8 +185,9 @@ def test_space_boundaries_pair_up_and_doors_connect_spaces(written):
             assert b.CorrespondingBoundary.CorrespondingBoundary == b
             pairs.add((tuple(sorted((sid(b.RelatingSpace), sid(b.CorrespondingBoundary.RelatingSpace)))),
                        b.RelatedBuildingElement.is_a(), sid(b.RelatedBuildingElement)))
-    assert pairs == {(("r1", "r2"), "IfcWall", "w1"), (("c", "r1"), "IfcWall", "w2"), (("c", "r2"), "IfcWall", "w2"),
-                     (("c", "r1"), "IfcDoor", "d1"), (("r2a", "r2b"), "IfcVirtualElement", "open:r2a|r2b")}
+    assert pairs == {(("r1", "r2"), "IfcWall", "w1"), (("c", "r1"), "IfcWall", "w2"),
+                     (("c", "r2"), "IfcWall", "w2"), (("c", "r1"), "IfcDoor", "d1"),
+                     (("r2a", "r2b"), "IfcVirtualElement", "open:r2a|r2b")}
     # the door's boundaries have a connection surface the size of the door (0.9 x 2.0 m)
     from shapely.geometry import Polygon
 
@@ -194,8 +196,8 @@ def test_space_boundaries_pair_up_and_doors_connect_spaces(written):
             pts = [p.Coordinates for p in b.ConnectionGeometry.SurfaceOnRelatingElement.OuterBoundary.Points]
             assert Polygon(pts).area == pytest.approx(1.8)
     # one-sided boundaries: room 1 touches the south and west walls and both slabs
-    one_sided = {(sid(b.RelatingSpace), sid(b.RelatedBuildingElement)) for b in f.by_type("IfcRelSpaceBoundary")
-                 if b.CorrespondingBoundary is None}
+    one_sided = {(sid(b.RelatingSpace), sid(b.RelatedBuildingElement))
+                 for b in f.by_type("IfcRelSpaceBoundary") if b.CorrespondingBoundary is None}
     assert {("r1", "w3"), ("r1", "w5"), ("r1", "s0"), ("r1", "s1")} <= one_sided
     assert ("r1", "w4") not in one_sided
 
@@ -305,8 +307,8 @@ def test_reader_unit_scale_and_storey_elevation_in_millimetres(tmp_path):
     project = api.root.create_entity(f, ifc_class="IfcProject", name="mm")
     api.unit.assign_unit(f)  # millimetres
     model = api.context.add_context(f, context_type="Model")
-    body = api.context.add_context(f, context_type="Model", context_identifier="Body", target_view="MODEL_VIEW",
-                                   parent=model)
+    body = api.context.add_context(f, context_type="Model", context_identifier="Body",
+                                   target_view="MODEL_VIEW", parent=model)
     site = api.root.create_entity(f, ifc_class="IfcSite")
     building = api.root.create_entity(f, ifc_class="IfcBuilding")
     api.aggregate.assign_object(f, products=[site], relating_object=project)
@@ -330,7 +332,8 @@ def test_reader_unit_scale_and_storey_elevation_in_millimetres(tmp_path):
     path = str(tmp_path / "mm.ifc")
     f.write(path)
     r = read_ifc(path)
-    assert [(s.name, s.floor_z, s.elevation) for s in r.storeys] == [("ground", 0.0, 0.0), ("upper", 3.0, 3.0)]
+    got = [(s.name, s.floor_z, s.elevation) for s in r.storeys]
+    assert got == [("ground", 0.0, 0.0), ("upper", 3.0, 3.0)]
     (w,) = r.walls
     assert w.storey == 1
     assert np.allclose(w.bounds, [[1.0, 2.0, 3.0], [6.0, 2.25, 5.5]], atol=1e-6)

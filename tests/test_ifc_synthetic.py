@@ -31,7 +31,8 @@ def test_preset_truth_writes_valid_ifc_that_round_trips(name, tmp_path):
     for cls in ("IfcSpace", "IfcExternalSpatialElement", "IfcWall", "IfcSlab", "IfcDoor"):
         for e in f.by_type(cls):
             shape = truth[ue.get_psets(e)["Indoor_Shape"]["ShapeId"]]
-            holder = ue.get_aggregate(e) if cls in ("IfcSpace", "IfcExternalSpatialElement") else ue.get_container(e)
+            is_space = cls in ("IfcSpace", "IfcExternalSpatialElement")
+            holder = ue.get_aggregate(e) if is_space else ue.get_container(e)
             if shape.parent is not None and cls == "IfcSpace" and holder.is_a("IfcSpace"):
                 holder = ue.get_aggregate(holder)
             assert storey_index[holder.id()] == shape.storey, (cls, shape.id)

@@ -36,6 +36,9 @@ __all__ = ["IfcReadParams", "read_ifc", "read_mesh", "read_reference", "MESH_EXT
 
 log = logging.getLogger(__name__)
 
+_MIN_DOUBLE_AREA = 1e-12
+"""Triangles whose doubled area (m²) is below this are degenerate and dropped."""
+
 MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
 """Surface-mesh formats :func:`read_mesh` accepts (through trimesh)."""
 
@@ -227,7 +230,8 @@ class _Reader:
         if self.ours:
             provenance = Provenance(prov.get("Method", "") or "", loads(prov.get("Parameters"), {}) or {},
                                     prov.get("Seed"), loads(prov.get("Timings"), {}) or {},
-                                    loads(prov.get("Trace"), {}) or {}, self.path, prov.get("Software", "") or "")
+                                    loads(prov.get("Trace"), {}) or {}, self.path,
+                                    prov.get("Software", "") or "")
             name = prov.get("ModelName") or (projects[0].Name or "")
         else:
             app = ""
@@ -235,7 +239,8 @@ class _Reader:
                 app = f"{oh.ApplicationFullName or ''} {oh.Version or ''}".strip()
             provenance = Provenance("ifc", {}, None, {}, {}, self.path, app)
             name = (projects[0].Name or "") if projects else ""
-        model = BuildingModel(shapes=tuple(shapes.values()), storeys=tuple(st_objs), relations=tuple(relations),
+        model = BuildingModel(shapes=tuple(shapes.values()), storeys=tuple(st_objs),
+                              relations=tuple(relations),
                               transform=t, offset=offset, provenance=provenance,
                               name=name or os.path.splitext(os.path.basename(self.path))[0])
         self.p(1.0, "IFC read")
@@ -341,7 +346,8 @@ class _Reader:
         grid = loads(ps.get("Grid"))
         return Shape(
             id=str(ps.get("ShapeId") or e.GlobalId), type=kind, geometry=geom, storey=int(storey), name=name,
-            terminal=bool(ps.get("Terminal", kind != ShapeType.INTERIOR)), active=bool(ps.get("Active", True)),
+            terminal=bool(ps.get("Terminal", kind != ShapeType.INTERIOR)),
+            active=bool(ps.get("Active", True)),
             grid=None if grid is None else tuple(grid),
             support={k: float(x) for k, x in sup.items() if k != "id" and isinstance(x, (int, float))},
             attributes=attributes, log=tuple((ps.get("Log") or "").split("\n")) if ps.get("Log") else (),
@@ -394,7 +400,8 @@ class _Reader:
         for eid, spaces in by_elem.items():
             el = f.by_id(eid)
             if el.is_a("IfcVirtualElement"):
-                kinds = (self._pset(el, PSET_SHAPE).get("RelationKinds") or "adjacency,connectivity").split(",")
+                kinds = self._pset(el, PSET_SHAPE).get("RelationKinds") or "adjacency,connectivity"
+                kinds = kinds.split(",")
                 via = None
             elif el.is_a("IfcDoor"):
                 kinds, via = ("connectivity",), ids.get(eid)
@@ -444,7 +451,7 @@ def _polyhedron(v: np.ndarray, tri: np.ndarray, prm: IfcReadParams) -> Optional[
     b = v[tri[:, 2]] - v[tri[:, 0]]
     cr = np.cross(a, b)
     area2 = np.linalg.norm(cr, axis=1)
-    keep = area2 > 1e-12
+    keep = area2 > _MIN_DOUBLE_AREA
     tri, cr, area2 = tri[keep], cr[keep], area2[keep]
     if len(tri) == 0:
         return None
@@ -540,7 +547,7 @@ def read_mesh(path: str | os.PathLike, *, default_type: ShapeType | str = ShapeT
                 kind = st
                 break
         a = np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]), axis=1)
-        t = t[a > 1e-12]
+        t = t[a > _MIN_DOUBLE_AREA]
         if len(t) == 0:
             continue
         shapes.append(Shape(f"mesh{k}", kind, Polyhedron(v, [tuple(x) for x in t]), storey=-1, name=name,

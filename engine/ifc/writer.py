@@ -53,6 +53,12 @@ TYPE_COLOURS = {
 """Surface colour (red, green, blue in 0..1) and transparency (0 opaque .. 1 clear) per type."""
 
 
+_SAME_POINT = 1e-9
+"""Distance (m) under which two consecutive ring vertices are one."""
+_VERTICAL_AXIS = 1e-6
+"""Norm of the horizontal part of a unit normal under which the normal is vertical."""
+
+
 @dataclass(frozen=True)
 class IfcWriteParams:
     """Parameters of :func:`write_ifc` (SI units)."""
@@ -374,7 +380,8 @@ class _Writer:
     # ------------------------------------------------------------------ spaces
     def _spaces(self):
         api, f, m = self.api, self.f, self.model
-        spaces = [s for s in m.shapes if s.type in (ShapeType.INTERIOR, ShapeType.EXTERIOR) and self._writable(s)]
+        spaces = [s for s in m.shapes
+                  if s.type in (ShapeType.INTERIOR, ShapeType.EXTERIOR) and self._writable(s)]
         # parents before their parts
         order = {s.id: 0 for s in spaces}
         for s in spaces:
@@ -387,12 +394,13 @@ class _Writer:
         for s in spaces:
             g = self.geom[s.id]
             if s.type == ShapeType.INTERIOR:
-                e = api.root.create_entity(f, ifc_class="IfcSpace", predefined_type="SPACE", name=s.name or s.id)
+                e = api.root.create_entity(f, ifc_class="IfcSpace", predefined_type="SPACE",
+                                           name=s.name or s.id)
                 e.LongName = s.name or None
                 e.CompositionType = "ELEMENT" if s.active else "PARTIAL"
             else:
-                e = api.root.create_entity(f, ifc_class="IfcExternalSpatialElement", predefined_type="EXTERNAL",
-                                           name=s.name or s.id)
+                e = api.root.create_entity(f, ifc_class="IfcExternalSpatialElement",
+                                           predefined_type="EXTERNAL", name=s.name or s.id)
             parent = self.ent.get(s.parent) if s.parent is not None else None
             if parent is None or not parent.is_a("IfcSpace"):
                 parent = self._container_of(s)
@@ -404,8 +412,8 @@ class _Writer:
                 ring = _clean_ring(fp - origin[:2])
                 if ring is not None:
                     curves = f.createIfcGeometricCurveSet([self._polyline(ring)])
-                    extra.append(f.createIfcShapeRepresentation(self.footprint, "FootPrint", "GeometricCurveSet",
-                                                                [curves]))
+                    extra.append(f.createIfcShapeRepresentation(self.footprint, "FootPrint",
+                                                                "GeometricCurveSet", [curves]))
             self._body(e, g, s.type, origin, extra)
             agg.setdefault(parent.id(), []).append(e)
             self.ent[s.id] = e
@@ -432,7 +440,8 @@ class _Writer:
                 continue
             g = self.geom[s.id]
             if s.type == ShapeType.WALL:
-                e = api.root.create_entity(f, ifc_class="IfcWall", predefined_type="SOLIDWALL", name=s.name or s.id)
+                e = api.root.create_entity(f, ifc_class="IfcWall", predefined_type="SOLIDWALL",
+                                           name=s.name or s.id)
             else:
                 e = api.root.create_entity(f, ifc_class="IfcSlab", predefined_type=self._slab_type(s, g),
                                            name=s.name or s.id)
@@ -535,8 +544,8 @@ class _Writer:
             else:
                 key = ("virtual", r.a, r.b)
                 if key not in self.ent:
-                    ve = api.root.create_entity(f, ifc_class="IfcVirtualElement",
-                                                name=f"Open boundary {m[r.a].name or r.a} | {m[r.b].name or r.b}")
+                    label = f"Open boundary {m[r.a].name or r.a} | {m[r.b].name or r.b}"
+                    ve = api.root.create_entity(f, ifc_class="IfcVirtualElement", name=label)
                     container = self._container_of(m[r.a])
                     self._placement(ve, container, self.origin[sa.id()])
                     api.spatial.assign_container(f, products=[ve], relating_structure=container)
@@ -547,7 +556,8 @@ class _Writer:
                     ps = _find_pset(self.ent[key], PSET_SHAPE)
                     if ps is not None:
                         kinds = sorted(set(ps.get("RelationKinds", "").split(",")) | {r.kind})
-                        self._pset_update(self.ent[key], PSET_SHAPE, {"RelationKinds": ",".join(k for k in kinds if k)})
+                        self._pset_update(self.ent[key], PSET_SHAPE,
+                                          {"RelationKinds": ",".join(k for k in kinds if k)})
                 elem, elem_shape, phys = self.ent[key], None, "VIRTUAL"
             if (r.a, r.b, elem.id()) in done:
                 continue
@@ -620,7 +630,7 @@ def _find_pset(product, name):
     return ue.get_psets(product).get(name)
 
 
-def _clean_ring(ring: np.ndarray, tol: float = 1e-9) -> Optional[np.ndarray]:
+def _clean_ring(ring: np.ndarray, tol: float = _SAME_POINT) -> Optional[np.ndarray]:
     """Drop repeated consecutive vertices of a closed ring; None when fewer than 3 remain."""
     r = np.asarray(ring, dtype=np.float64)
     keep = np.linalg.norm(r - np.roll(r, 1, axis=0), axis=1) > tol
@@ -687,7 +697,7 @@ def _opening_geometry(door: Shape, g: Polyhedron, wall_g: Polyhedron, margin: fl
 def _plane_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit in-plane axes (u, w) of a plane with unit normal ``n`` (u horizontal when possible)."""
     u = np.array([-n[1], n[0], 0.0])
-    if np.linalg.norm(u) < 1e-6:
+    if np.linalg.norm(u) < _VERTICAL_AXIS:
         u = np.array([1.0, 0.0, 0.0])
     u /= np.linalg.norm(u)
     w = np.cross(n, u)
