@@ -563,3 +563,11 @@ def test_bench_discovers_bench_io_and_writes_json(tmp_path, monkeypatch):
     assert mem["peak_rss_mb"] >= mem["baseline_rss_mb"] > 0
     with pytest.raises(SystemExit):
         runner.main(["--out", str(tmp_path), "--only", "nosuch"])
+
+
+def test_text_with_byte_order_mark_and_crlf(tmp_path):
+    path = tmp_path / "bom.txt"
+    path.write_bytes(("\ufeff" + "".join(f"{i} {i * 2} {i * 3}\r\n" for i in range(15))).encode("utf-8"))
+    c = read_point_cloud(path)
+    assert len(c) == 15
+    np.testing.assert_array_equal(c.xyz[:, 1], 2 * np.arange(15))

@@ -106,7 +106,7 @@ def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadPar
             if not raw:
                 raise FormatError("no numeric point data found", path)
             line_no += 1
-            text = raw.decode("utf-8", errors="replace")
+            text = raw.decode("utf-8", errors="replace").lstrip("\ufeff")  # a byte-order mark
             tokens = split_tokens(text)
             if not tokens:
                 continue
