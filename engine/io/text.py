@@ -106,7 +106,9 @@ def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadPar
             if not raw:
                 raise FormatError("no numeric point data found", path)
             line_no += 1
-            text = raw.decode("utf-8", errors="replace").lstrip("\ufeff")  # a byte-order mark
+            if raw.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte-order mark
+                raw, pos = raw[3:], pos + 3
+            text = raw.decode("utf-8", errors="replace")
             tokens = split_tokens(text)
             if not tokens:
                 continue
