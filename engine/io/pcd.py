@@ -163,6 +163,8 @@ def _parse_header(path: str, f) -> _Header:
         raise FormatError(f"unknown PCD DATA type {h.data!r}", path)
     if not {"x", "y", "z"} <= set(h.fields):
         raise FormatError("PCD file has no x, y or z field", path)
+    if any(c != 1 for name, c in zip(h.fields, h.counts) if name in ("x", "y", "z")):
+        raise FormatError("PCD fields x, y and z must have COUNT 1", path)
     h.np_types = []
     for name, s, ty in zip(h.fields, h.sizes, h.types):
         code = _TYPES.get((ty, s))
