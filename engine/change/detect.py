@@ -245,7 +245,10 @@ def _classify(patches, xyz, cloud, t, params: ChangeParams, should_stop) -> Patc
     amb = amb[_near_voxels(xyz[amb], xyz[new0], params.normal_radius)]
     if len(amb) == 0:
         return sup
-    normals = _pca_normals(xyz, amb, params.normal_neighbours)
+    # neighbours come from the points around the new ones only (a smaller k-d tree)
+    region = np.flatnonzero(_near_voxels(xyz, xyz[new0], 2 * params.normal_radius))
+    pos = np.searchsorted(region, amb)
+    normals = _pca_normals(xyz[region], pos, params.normal_neighbours)
     sub = patch_support(patches, xyz[amb], r, normals=normals, max_normal_angle=params.max_normal_angle,
                         search_distance=search, should_stop=should_stop)
     on = sup.on_model.copy()

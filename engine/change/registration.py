@@ -118,18 +118,24 @@ def register(model: BuildingModel, xyz: np.ndarray, params: Optional[Registratio
     mp, mn = model_points(model, params.model_spacing, params.surface_types)
     target = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(mp))
     target.normals = o3d.utility.Vector3dVector(mn)
-    source = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(xyz, dtype=np.float64)))
-    source = source.voxel_down_sample(params.voxel_size)
+    full = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(xyz, dtype=np.float64)))
+    source = full.voxel_down_sample(params.voxel_size)
     if len(source.points) < 3:
         raise InputError("too few scan points to register")
+    coarse = {}
     t = init
     stages = []
     res = None
     for k, dist in enumerate(params.distances):
         p(k / len(params.distances), f"ICP {dist:.2f} m")
+        # coarse stages work on a coarser copy of the scan (a quarter of the distance)
+        vs = max(params.voxel_size, float(dist) / 4)
+        if vs > params.voxel_size and vs not in coarse:
+            coarse[vs] = source.voxel_down_sample(vs)
+        src_k = coarse.get(vs, source)
         res = reg.registration_icp(
-            source, target, float(dist), t, reg.TransformationEstimationPointToPlane(),
-            reg.ICPConvergenceCriteria(relative_fitness=1e-7, relative_rmse=1e-7,
+            src_k, target, float(dist), t, reg.TransformationEstimationPointToPlane(),
+            reg.ICPConvergenceCriteria(relative_fitness=1e-6, relative_rmse=1e-6,
                                        max_iteration=int(params.max_iterations)))
         if res.fitness > 0:
             t = np.asarray(res.transformation, dtype=np.float64).copy()

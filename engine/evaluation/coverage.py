@@ -12,8 +12,10 @@ import numpy as np
 
 from .patches import PlanarPatch, points_inside
 
-__all__ = ["PatchSupport", "patch_support", "alpha_area", "thin_grid"]
+__all__ = ["PatchSupport", "patch_support", "alpha_area", "thin_grid", "PointBuckets"]
 
+BUCKET_CELL = 1.0
+"""Grid size of the buckets that limit each surface's candidate points to its box, metres."""
 CORNER_COS = float(np.cos(np.radians(45.0)))
 """Two surfaces whose normals differ by more than 45° make a corner (or an edge)."""
 
@@ -23,18 +25,20 @@ def thin_grid(xy: np.ndarray, cell: float) -> np.ndarray:
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(xy) == 0 or cell <= 0:
         return xy
-    keys = np.floor((xy - xy.min(axis=0)) / cell).astype(np.int64)
-    code = keys[:, 0] * (int(keys[:, 1].max()) + 1) + keys[:, 1]
-    _, first = np.unique(code, return_index=True)
-    return xy[np.sort(first)]
+    ij = np.floor((xy - xy.min(axis=0)) / cell).astype(np.int64)
+    ny = int(ij[:, 1].max()) + 1
+    rep = np.full((int(ij[:, 0].max()) + 1) * ny, -1, dtype=np.int64)
+    rep[ij[:, 0] * ny + ij[:, 1]] = np.arange(len(xy))  # one (the last) point per cell, no sort
+    return xy[rep[rep >= 0]]
 
 
 def alpha_area(xy: np.ndarray, r_alpha: float, *, thin: Optional[float] = None) -> float:
     """Area (m²) of the 2D alpha shape of points: the Delaunay triangles whose circumradius
     is below ``r_alpha`` (metres).
 
-    ``xy`` : (n, 2) float64, metres. ``thin`` : grid cell used to thin the points first
-    (default ``r_alpha / 4``; the triangles kept are then still far below ``r_alpha``).
+    ``xy`` : (n, 2) float64, metres. ``thin`` : the points are first thinned to one per
+    cell of a raster of this size (default ``r_alpha / 4``), which bounds the work while
+    the kept triangles stay far below ``r_alpha``.
     Fewer than 3 points, or collinear points, give 0.
     """
     from scipy.spatial import Delaunay, QhullError
@@ -83,6 +87,43 @@ class PatchSupport:
     members: list
 
 
+class PointBuckets:
+    """Points sorted into a coarse 3D grid, to fetch those inside a box quickly.
+
+    ``xyz`` : (n, 3) float64 metres; ``cell`` : grid size, metres.
+    """
+
+    def __init__(self, xyz: np.ndarray, cell: float = 1.0):
+        self.xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+        self.cell = float(cell)
+        if len(self.xyz) == 0:
+            self.lo = np.zeros(3)
+            self.dims = np.ones(3, dtype=np.int64)
+            self.order = np.zeros(0, dtype=np.int64)
+            self.starts = np.zeros(2, dtype=np.int64)
+            return
+        self.lo = self.xyz.min(axis=0)
+        ijk = np.floor((self.xyz - self.lo) / self.cell).astype(np.int64)
+        self.dims = ijk.max(axis=0) + 1
+        code = (ijk[:, 0] * self.dims[1] + ijk[:, 1]) * self.dims[2] + ijk[:, 2]
+        self.order = np.argsort(code, kind="stable")
+        self.starts = np.searchsorted(code[self.order], np.arange(int(np.prod(self.dims)) + 1))
+
+    def in_box(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Indices (k,) int64 of the points in the cells meeting the box [lo, hi] (a superset
+        of the points inside it)."""
+        a = np.clip(np.floor((np.asarray(lo) - self.lo) / self.cell).astype(np.int64), 0, self.dims - 1)
+        b = np.clip(np.floor((np.asarray(hi) - self.lo) / self.cell).astype(np.int64), 0, self.dims - 1)
+        if np.any(np.asarray(hi) < self.lo) or len(self.order) == 0:
+            return np.zeros(0, dtype=np.int64)
+        i, j = np.meshgrid(np.arange(a[0], b[0] + 1), np.arange(a[1], b[1] + 1), indexing="ij")
+        base = ((i * self.dims[1] + j) * self.dims[2]).ravel()
+        first = self.starts[base + a[2]]
+        last = self.starts[base + b[2] + 1]
+        parts = [self.order[f:l] for f, l in zip(first, last) if l > f]
+        return np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64)
+
+
 def patch_support(patches: Sequence[PlanarPatch], xyz: np.ndarray, max_distance: float, *,
                   normals: Optional[np.ndarray] = None, max_normal_angle: Optional[float] = None,
                   search_distance: Optional[float] = None, should_stop=None) -> PatchSupport:
@@ -120,16 +161,20 @@ def patch_support(patches: Sequence[PlanarPatch], xyz: np.ndarray, max_distance:
     if use_normals:
         nrm = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
         cos_n = float(np.cos(max_normal_angle))
+    buckets = PointBuckets(xyz, BUCKET_CELL)
     for j, pt in enumerate(patches):
         if should_stop is not None and should_stop():
             from ..errors import Cancelled
 
             raise Cancelled("cancelled by the user")
-        d = np.abs(xyz @ pt.normal - pt.rho)
-        idx = np.flatnonzero(d <= search)
+        outline = np.vstack(pt.outline3d())
+        cand = buckets.in_box(outline.min(axis=0) - search, outline.max(axis=0) + search)
+        dc = np.abs(xyz[cand] @ pt.normal - pt.rho)
+        keep = dc <= search
+        idx, dj = cand[keep], dc[keep]
         if len(idx):
-            idx = idx[points_inside(pt, pt.to2d(xyz[idx]))]
-        dj = d[idx]
+            inside = points_inside(pt, pt.to2d(xyz[idx]))
+            idx, dj = idx[inside], dj[inside]
         near = idx[dj <= max_distance]
         if use_normals:
             ok = np.abs(nrm[idx] @ pt.normal) >= cos_n
