@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 import pytest
-from shapely.geometry import Point, Polygon
+from shapely.geometry import Polygon
 from shapely.ops import unary_union
 
 from engine.errors import InputError
@@ -453,3 +453,16 @@ def test_cli_synth_writes_scan_truth_variants_and_png(tmp_path, monkeypatch):
     with pytest.raises(InputError):
         bad.func(bad)
     assert json.loads((tmp_path / "eval_demo_truth.json").read_text())["schema"] == "indoor-building-model"
+    # the written plan (with its clutter) reads back and rebuilds the same truth and scan
+    again = parser.parse_args(["synth", str(tmp_path / "eval_demo_plan.json"), "-o", str(tmp_path / "again"),
+                               "--seed", "3", "--noise", "0.01", "--points", "30000", "--no-ifc", "--no-png"])
+    again.quiet, again.json = True, False
+    assert again.func(again) == 0
+    assert (tmp_path / "again" / "eval_demo_truth.json").read_text() == (tmp_path / "eval_demo_truth.json").read_text()
+    assert (tmp_path / "again" / "eval_demo.ply").read_bytes() == (tmp_path / "eval_demo.ply").read_bytes()
+    broken = tmp_path / "broken.json"
+    broken.write_text('{"schema": "indoor-floor-plan", "storeys": [], "rooms": []}')
+    bad = parser.parse_args(["synth", str(broken), "-o", str(tmp_path)])
+    bad.quiet, bad.json = True, False
+    with pytest.raises(InputError, match="broken.json"):
+        bad.func(bad)

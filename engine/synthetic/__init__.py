@@ -21,7 +21,16 @@ from .plan import (
     plan_geometry,
     rooms_from_partition,
 )
-from .presets import DEFAULT_POINTS, NOISE_SIGMA, PRESETS, SyntheticScene, preset, preset_plans, scan_params_for
+from .presets import (
+    DEFAULT_POINTS,
+    NOISE_SIGMA,
+    PRESETS,
+    SyntheticScene,
+    preset,
+    preset_plans,
+    scan_params_for,
+    scene_from_plans,
+)
 from .scan import (
     LABEL_CEILING,
     LABEL_CLUTTER,
@@ -37,7 +46,7 @@ from .scan import (
 )
 
 __all__ = [
-    "preset", "preset_plans", "scan_params_for", "PRESETS", "NOISE_SIGMA", "DEFAULT_POINTS", "SyntheticScene",
+    "preset", "preset_plans", "scene_from_plans", "scan_params_for", "PRESETS", "NOISE_SIGMA", "DEFAULT_POINTS", "SyntheticScene",
     "Room", "Door", "PlanStorey", "Clutter", "FloorPlan", "WallPiece", "PlanGeometry",
     "rooms_from_partition", "plan_geometry", "build_truth", "door_footprint",
     "FurnishParams", "furnish",

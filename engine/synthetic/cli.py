@@ -1,9 +1,9 @@
 """``indoor synth PRESET -o DIR [--seed N] [--noise tls|mobile|SIGMA] [--points N]``.
 
-Writes ``DIR/<preset>.ply`` (the simulated scan with per-point ``label``, ``scan_index``
+PRESET is a preset name or a floor-plan JSON file. Writes ``DIR/<preset>.ply`` (the simulated scan with per-point ``label``, ``scan_index``
 and, for change_demo, ``new``), ``DIR/<preset>_truth.json`` and ``.ifc`` (the true model),
-``DIR/<preset>_<variant>.json`` and ``.ifc`` for each variant and ``DIR/<preset>_top.png``
-(a top view).
+``DIR/<preset>_<variant>.json`` and ``.ifc`` for each variant, ``DIR/<preset>_plan.json``
+(the furnished floor plan, readable back as PRESET) and ``DIR/<preset>_top.png`` (a top view).
 """
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import logging
 import os
 import time
 
-from .presets import DEFAULT_POINTS, PRESETS, preset
+from .plan import FloorPlan
+from .presets import DEFAULT_POINTS, PRESETS, preset, scene_from_plans
 
 __all__ = ["add_synth", "cmd_synth", "write_scene"]
 
@@ -21,7 +22,9 @@ log = logging.getLogger(__name__)
 def add_synth(sub) -> None:
     """Add the ``synth`` subcommand to an argparse sub-parser collection."""
     p = sub.add_parser("synth", help="write a synthetic scan and its ground-truth model")
-    p.add_argument("preset", metavar="PRESET", help=f"one of: {', '.join(PRESETS)}")
+    p.add_argument("preset", metavar="PRESET",
+                   help=f"one of: {', '.join(PRESETS)}; or a floor-plan JSON file (as written to "
+                        "DIR/<preset>_plan.json)")
     p.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--noise", default="tls",
@@ -52,6 +55,8 @@ def write_scene(scene, out_dir, *, png: bool = True, ifc: bool = True) -> dict:
     t_ply = time.perf_counter() - t0
     files["truth"] = os.path.join(out_dir, f"{name}_truth.json")
     scene.truth.to_json(files["truth"])
+    files["plan"] = os.path.join(out_dir, f"{name}_plan.json")
+    scene.plan.to_json(files["plan"])
     for k, m in scene.variants.items():
         files[k] = os.path.join(out_dir, f"{name}_{k}.json")
         m.to_json(files[k])
@@ -89,9 +94,14 @@ def cmd_synth(args) -> int:
     bar = ConsoleProgress(f"synth {args.preset}", quiet=getattr(args, "quiet", False) or getattr(args, "json", False))
     t0 = time.perf_counter()
     try:
-        noise = args.noise
-        scene = preset(args.preset, seed=args.seed, noise=noise, target_points=args.points,
-                       clutter=not args.no_clutter, progress=bar)
+        kw = dict(seed=args.seed, noise=args.noise, target_points=args.points, clutter=not args.no_clutter,
+                  progress=bar)
+        if args.preset.lower().endswith(".json"):
+            plan = FloorPlan.from_json(args.preset)
+            name = plan.name or os.path.splitext(os.path.basename(args.preset))[0]
+            scene = scene_from_plans({"truth": plan}, name=name, **kw)
+        else:
+            scene = preset(args.preset, **kw)
     finally:
         bar.close()
     t_sim = time.perf_counter() - t0

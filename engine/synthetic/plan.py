@@ -15,9 +15,11 @@ wall gaps at any angle.
 """
 from __future__ import annotations
 
+import json
 import logging
 import math
-from dataclasses import dataclass, field, replace
+import os
+from dataclasses import asdict, dataclass, field, replace
 from typing import Optional, Sequence
 
 import numpy as np
@@ -25,10 +27,12 @@ import shapely
 from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box
 from shapely.ops import unary_union
 
-from ..errors import InputError
+from ..errors import FormatError, InputError
+from ..fileutil import atomic_write_text
 from ..model import BuildingModel, Polyhedron, Provenance, Relation, Shape, ShapeType, Storey
 
 __all__ = [
+    "PLAN_SCHEMA",
     "Room",
     "Door",
     "PlanStorey",
@@ -43,6 +47,11 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+
+PLAN_SCHEMA = "indoor-floor-plan"
+"""Value of the ``schema`` key of a floor-plan JSON file."""
+PLAN_SCHEMA_VERSION = 1
+"""Version of the floor-plan JSON layout."""
 
 _EPS = 1e-6
 """Geometric tolerance of the 2-D operations, metres."""
@@ -130,8 +139,8 @@ class PlanStorey:
     floor_z : float
         Height of the finished floor, metres.
     height : float
-        Clear floor-to-ceiling height of rooms without their own, and the height of the
-        storey's walls, metres.
+        Clear floor-to-ceiling height of rooms without their own, metres. The storey's
+        walls reach the highest ceiling of its rooms (at least this height).
     name : str
     """
 
@@ -232,6 +241,101 @@ class FloorPlan:
 
     def with_(self, **changes) -> "FloorPlan":
         return replace(self, **changes)
+
+    # ------------------------------------------------------------------ JSON
+    def to_dict(self) -> dict:
+        """JSON-ready description (``schema`` "indoor-floor-plan")."""
+        return {
+            "schema": PLAN_SCHEMA,
+            "schema_version": PLAN_SCHEMA_VERSION,
+            "name": self.name,
+            "interior_thickness": self.interior_thickness,
+            "exterior_thickness": self.exterior_thickness,
+            "slab_thickness": self.slab_thickness,
+            "exterior_margin": self.exterior_margin,
+            "storeys": [asdict(s) for s in self.storeys],
+            "rooms": [{**asdict(r), "polygon": [list(p) for p in r.polygon]} for r in self.rooms],
+            "doors": [{**asdict(d), "rooms": list(d.rooms)} for d in self.doors],
+            "clutter": [{**asdict(c), "center": list(c.center), "size": list(c.size)} for c in self.clutter],
+        }
+
+    @classmethod
+    def from_dict(cls, d, path=None) -> "FloorPlan":
+        """Inverse of :meth:`to_dict`; :class:`~engine.errors.FormatError` on bad content."""
+        if not isinstance(d, dict) or d.get("schema") != PLAN_SCHEMA:
+            raise FormatError(f"not a floor-plan JSON (no 'schema': '{PLAN_SCHEMA}')", path)
+        try:
+            return cls(
+                name=str(d.get("name", "")),
+                storeys=tuple(PlanStorey(float(s["floor_z"]), float(s["height"]), str(s.get("name", "")))
+                              for s in d["storeys"]),
+                rooms=tuple(Room(str(r["name"]), tuple(tuple(map(float, p)) for p in r["polygon"]),
+                                 int(r.get("storey", 0)),
+                                 None if r.get("ceiling_height") is None else float(r["ceiling_height"]),
+                                 bool(r.get("scanned", True)), bool(r.get("furnished", True)))
+                            for r in d["rooms"]),
+                doors=tuple(Door(tuple(map(str, x["rooms"])), float(x.get("position", 0.5)),
+                                 float(x.get("width", 0.9)), float(x.get("height", 2.1)), bool(x.get("open", True)))
+                            for x in d.get("doors", [])),
+                clutter=tuple(Clutter(str(c["kind"]), tuple(map(float, c["center"])), tuple(map(float, c["size"])),
+                                      float(c.get("angle", 0.0)), str(c["room"]), float(c.get("z0", 0.0)))
+                              for c in d.get("clutter", [])),
+                interior_thickness=float(d.get("interior_thickness", 0.15)),
+                exterior_thickness=float(d.get("exterior_thickness", 0.3)),
+                slab_thickness=float(d.get("slab_thickness", 0.3)),
+                exterior_margin=float(d.get("exterior_margin", 1.0)),
+            ).validated(path)
+        except (KeyError, TypeError, ValueError) as e:
+            raise FormatError(f"malformed floor-plan JSON: {e!r}", path) from None
+
+    def to_json(self, path=None, indent: Optional[int] = 1) -> str:
+        """Serialise; when ``path`` is given, write atomically."""
+        text = json.dumps(self.to_dict(), indent=indent)
+        if path is not None:
+            atomic_write_text(path, text)
+        return text
+
+    @classmethod
+    def from_json(cls, path) -> "FloorPlan":
+        """Read a plan written by :meth:`to_json` (InputError/FormatError on a bad file)."""
+        path = os.fspath(path)
+        if not os.path.exists(path):
+            raise InputError("file not found", path)
+        try:
+            with open(path, encoding="utf-8") as f:
+                d = json.load(f)
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+            raise FormatError(f"not readable as JSON: {e}", path) from None
+        return cls.from_dict(d, path)
+
+    def validated(self, path=None) -> "FloorPlan":
+        """Check names, references and numbers; returns self or raises InputError."""
+        names = [r.name for r in self.rooms]
+        if not self.storeys or not self.rooms:
+            raise InputError(f"plan {self.name!r} needs at least one storey and one room", path)
+        if len(set(names)) != len(names):
+            raise InputError(f"plan {self.name!r} has duplicate room names", path)
+        for st in self.storeys:
+            if not (math.isfinite(st.floor_z) and st.height > 0):
+                raise InputError(f"plan {self.name!r}: storey heights must be positive", path)
+        for r in self.rooms:
+            if not 0 <= r.storey < len(self.storeys):
+                raise InputError(f"room {r.name!r} refers to storey {r.storey}, which does not exist", path)
+            if len(r.polygon) < 3 or not all(math.isfinite(v) for p in r.polygon for v in p):
+                raise InputError(f"room {r.name!r} needs a polygon of at least 3 finite points", path)
+            if r.ceiling_height is not None and not r.ceiling_height > 0:
+                raise InputError(f"room {r.name!r}: ceiling height must be positive", path)
+        for d in self.doors:
+            if len(d.rooms) != 2 or any(n not in names for n in d.rooms):
+                raise InputError(f"door {d.rooms!r} must join two rooms of the plan", path)
+            if not (d.width > 0 and d.height > 0):
+                raise InputError(f"door {d.rooms!r}: width and height must be positive", path)
+        for c in self.clutter:
+            if c.room not in names:
+                raise InputError(f"clutter in unknown room {c.room!r}", path)
+        if not (self.interior_thickness > 0 and self.exterior_thickness > 0 and self.slab_thickness > 0):
+            raise InputError(f"plan {self.name!r}: thicknesses must be positive", path)
+        return self
 
 
 # ----------------------------------------------------------------------------- helpers

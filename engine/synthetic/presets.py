@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Mapping, Optional, Union
 
 import numpy as np
-from shapely.geometry import Polygon, box
+from shapely.geometry import Polygon
 from shapely.ops import unary_union
 
 from ..errors import InputError
@@ -47,7 +47,7 @@ from .plan import (
 from .scan import ScanParams, simulate_scan
 
 __all__ = ["SyntheticScene", "PRESETS", "NOISE_SIGMA", "DEFAULT_POINTS", "preset", "preset_plans",
-           "scan_params_for"]
+           "scene_from_plans", "scan_params_for"]
 
 NOISE_SIGMA = {"tls": 0.005, "mobile": 0.02}
 """Range noise σ of the two scanner kinds, metres."""
@@ -354,6 +354,7 @@ def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
         Multiplies the default point count when ``target_points`` is not given.
     clutter : bool
         Furnish the rooms (shelves, cabinets, tables) or leave them empty.
+    furnish_params : FurnishParams
     progress, should_stop : callbacks (see :class:`engine.progress.Progress`)
 
     Returns
@@ -365,8 +366,32 @@ def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
     InputError
         Unknown preset name or bad noise value.
     """
-    prog = Progress.wrap(progress, should_stop)
     plans = preset_plans(name)
+    return scene_from_plans(plans, name=name, seed=seed, noise=noise, target_points=target_points,
+                            scale=scale, clutter=clutter, furnish_params=furnish_params,
+                            scanned="changed" if name == "change_demo" else "truth",
+                            progress=progress, should_stop=should_stop)
+
+
+def scene_from_plans(plans: Mapping[str, FloorPlan], *, name: Optional[str] = None, seed: int = 0,
+                     noise: Union[str, float] = "tls", target_points: Optional[int] = None,
+                     scale: float = 1.0, clutter: bool = True,
+                     furnish_params: FurnishParams = FurnishParams(), scanned: str = "truth",
+                     progress=None, should_stop=None) -> SyntheticScene:
+    """A synthetic scene from floor plans: ``plans["truth"]`` is the true building, the
+    other entries are variants; ``plans[scanned]`` is the building that is scanned.
+
+    When the scanned plan is not the truth (change detection), the cloud gets
+    ``fields["new"]`` (1 on walls of the scanned building that the truth lacks), the
+    truth's walls that the scanned building lacks (and their doors) get
+    ``attributes["removed_in_scan"] = True`` and the scanned variant's new walls
+    ``attributes["new_in_scan"] = True``. Plans that already hold clutter are not
+    furnished again. Other parameters as in :func:`preset`.
+    """
+    prog = Progress.wrap(progress, should_stop)
+    if "truth" not in plans or scanned not in plans:
+        raise InputError(f"plans must hold 'truth' and the scanned plan {scanned!r}")
+    name = name or plans["truth"].name
     target = int(target_points) if target_points is not None else int(round(DEFAULT_POINTS * scale))
     if target <= 0:
         raise InputError(f"target_points must be positive, not {target}")
@@ -375,27 +400,27 @@ def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
     rng_furnish, rng_scan = (np.random.default_rng(s) for s in ss.spawn(2))
     timings = {}
     t0 = time.perf_counter()
-    scanned_key = "changed" if name == "change_demo" else "truth"
-    scanned = plans[scanned_key]
-    if clutter:
-        scanned = furnish(scanned, rng_furnish, furnish_params)
-    geom = plan_geometry(scanned)
+    plan = plans[scanned].validated()
+    if clutter and not plan.clutter:
+        plan = furnish(plan, rng_furnish, furnish_params)
+    elif not clutter:
+        plan = plan.with_(clutter=())
+    geom = plan_geometry(plan)
     prog(0.05, "true model")
-    truth = build_truth(plans["truth"]) if scanned_key != "truth" else build_truth(scanned, geom)
-    variants = {k: build_truth(p) for k, p in plans.items() if k not in ("truth",) and k != scanned_key}
-    extra_fields = {}
+    truth = build_truth(plan, geom) if scanned == "truth" else build_truth(plans["truth"].validated())
+    variants = {k: build_truth(p.validated()) for k, p in plans.items() if k not in ("truth", scanned)}
     timings["truth_s"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    result = simulate_scan(scanned, params, geometry=geom, rng=rng_scan, progress=prog.sub(0.1, 1.0))
+    result = simulate_scan(plan, params, geometry=geom, rng=rng_scan, progress=prog.sub(0.1, 1.0))
     timings["scan_s"] = time.perf_counter() - t0
     cloud = result.cloud
-    if name == "change_demo":
-        changed = build_truth(scanned, geom)
-        variants["changed"] = changed
+    if scanned != "truth":
+        changed = build_truth(plan, geom)
         new_ids = _changed_walls(changed, truth)
         removed = _changed_walls(truth, changed)
         new_idx = [int(i.split("_")[1]) for i in new_ids]
-        extra_fields["new"] = np.isin(result.wall_index, new_idx).astype(np.int32)
+        cloud = cloud.with_(fields={**cloud.fields,
+                                    "new": np.isin(result.wall_index, new_idx).astype(np.int32)})
         upd = []
         for wid in removed:
             w = truth[wid]
@@ -403,15 +428,10 @@ def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
             for c in w.children:
                 d = truth[c]
                 upd.append(d.with_(attributes={**d.attributes, "removed_in_scan": True}))
-        for wid in new_ids:
-            w = changed[wid]
-            upd_c = w.with_(attributes={**w.attributes, "new_in_scan": True})
-            changed = changed.replace_shapes(upd_c)
-        variants["changed"] = changed
         truth = truth.replace_shapes(*upd)
-    if extra_fields:
-        cloud = cloud.with_(fields={**cloud.fields, **extra_fields})
+        variants[scanned] = changed.replace_shapes(
+            *[changed[w].with_(attributes={**changed[w].attributes, "new_in_scan": True}) for w in new_ids])
     cloud = cloud.with_(source=f"synthetic:{name}:seed={seed}")
     prog(1.0, "done")
     return SyntheticScene(name=name, seed=int(seed), noise_sigma=params.sigma, cloud=cloud, truth=truth,
-                          plan=scanned, variants=variants, scan_params=params, timings=timings)
+                          plan=plan, variants=variants, scan_params=params, timings=timings)

@@ -27,7 +27,7 @@ from shapely.ops import unary_union
 from ..errors import InputError
 from ..pointcloud import PointCloud
 from ..progress import Progress
-from .plan import FloorPlan, PlanGeometry, _edge_frame, _polygons, plan_geometry
+from .plan import FloorPlan, PlanGeometry, _edge_frame, plan_geometry
 
 __all__ = [
     "LABEL_WALL",
@@ -55,6 +55,12 @@ LABEL_CLUTTER = 3
 """Truth label of points on furniture."""
 LABEL_NAMES = ("wall", "floor", "ceiling", "clutter")
 """Name of each label value."""
+TABLE_TOP = 0.04
+"""Thickness of a table top, metres."""
+TABLE_LEG = 0.05
+"""Side of a table leg's square section, metres."""
+TABLE_LEG_INSET = 0.1
+"""Distance of a table leg from the table's corner (along the diagonal), metres."""
 
 
 @dataclass(frozen=True)
@@ -94,6 +100,11 @@ class ScanParams:
     """Mobile mode: distance between successive positions along the walk, metres."""
     door_approach: float = 0.6
     """Mobile mode: the walk passes this far in front of each door, metres."""
+    path_wall_clearance: float = 0.2
+    """Mobile mode: walk positions closer than this to a wall (outside door openings) are
+    dropped, metres."""
+    path_clutter_clearance: float = 0.1
+    """Mobile mode: walk positions closer than this to furniture are dropped, metres."""
     pilot_rays: int = 60_000
     """Rays of the pilot scan that measures the hit rate for ``target_points``."""
     batch_rays: int = 1_000_000
@@ -264,15 +275,13 @@ def build_scene_mesh(plan: FloorPlan, geometry: Optional[PlanGeometry] = None, *
             zf = plan.floor_z(room) + item.z0
             fp = item.footprint()
             if item.kind == "table":
-                top = 0.04
-                mb.box(fp, zf + item.size[2] - top, zf + item.size[2], LABEL_CLUTTER)
-                leg = 0.05
+                mb.box(fp, zf + item.size[2] - TABLE_TOP, zf + item.size[2], LABEL_CLUTTER)
                 cs = np.asarray(fp.exterior.coords)[:4]
                 ctr = cs.mean(axis=0)
                 for cc in cs:
-                    lc = cc + (ctr - cc) / np.linalg.norm(ctr - cc) * 0.1
-                    mb.box(Point(lc).buffer(leg / 2, cap_style="square"), zf, zf + item.size[2] - top,
-                           LABEL_CLUTTER)
+                    lc = cc + (ctr - cc) / np.linalg.norm(ctr - cc) * TABLE_LEG_INSET
+                    mb.box(Point(lc).buffer(TABLE_LEG / 2, cap_style="square"), zf,
+                           zf + item.size[2] - TABLE_TOP, LABEL_CLUTTER)
             else:
                 mb.box(fp, zf, zf + item.size[2], LABEL_CLUTTER)
     return mb.build()
@@ -403,10 +412,11 @@ def scanner_positions(plan: FloorPlan, params: ScanParams = ScanParams(),
         walks.append((plan.room(room.name).storey, np.asarray(way)))
     free = {}
     for s in range(len(plan.storeys)):
-        rooms = [r.shape.buffer(-0.2) for r in plan.rooms if r.storey == s]
-        doors = [fp.buffer(0.05) for door, fp, _ in g.doors if door.open
+        rooms = [r.shape.buffer(-params.path_wall_clearance) for r in plan.rooms if r.storey == s]
+        doors = [fp.buffer(params.path_wall_clearance / 4) for door, fp, _ in g.doors if door.open
                  and plan.room(door.rooms[0]).storey == s]
-        tall = [c.footprint().buffer(0.1) for c in plan.clutter if plan.room(c.room).storey == s]
+        tall = [c.footprint().buffer(params.path_clutter_clearance) for c in plan.clutter
+                if plan.room(c.room).storey == s]
         region = unary_union(rooms + doors)
         if tall:
             region = region.difference(unary_union(tall))
