@@ -191,10 +191,23 @@ def test_space_boundaries_pair_up_and_doors_connect_spaces(written):
     # the door's boundaries have a connection surface the size of the door (0.9 x 2.0 m)
     from shapely.geometry import Polygon
 
+    import ifcopenshell.util.placement as up
+
+    door = m["d1"].geometry
     for b in f.by_type("IfcRelSpaceBoundary"):
         if b.RelatedBuildingElement.is_a("IfcDoor"):
-            pts = [p.Coordinates for p in b.ConnectionGeometry.SurfaceOnRelatingElement.OuterBoundary.Points]
+            plane = b.ConnectionGeometry.SurfaceOnRelatingElement
+            pts = np.array([p.Coordinates for p in plane.OuterBoundary.Points])
             assert Polygon(pts).area == pytest.approx(1.8)
+            # placed relative to the space: in world coordinates it lies on a face of the door
+            world = up.get_local_placement(b.RelatingSpace.ObjectPlacement) @ \
+                up.get_axis2placement(plane.BasisSurface.Position)
+            q = np.column_stack([pts[:, :2], np.zeros(len(pts)), np.ones(len(pts))]) @ world.T
+            homog = np.vstack([(q[:, :3] - m.offset).T, np.ones(len(q))])
+            local = np.linalg.solve(m.transform, homog).T[:, :3]  # back to the model frame
+            lo, hi = door.bounds
+            assert np.all(local >= lo - 1e-6) and np.all(local <= hi + 1e-6)
+            assert np.ptp(local[:, 1]) < 1e-6 and local[0, 1] in (pytest.approx(4.0), pytest.approx(4.2))
     # one-sided boundaries: room 1 touches the south and west walls and both slabs
     one_sided = {(sid(b.RelatingSpace), sid(b.RelatedBuildingElement))
                  for b in f.by_type("IfcRelSpaceBoundary") if b.CorrespondingBoundary is None}
