@@ -474,3 +474,22 @@ def test_model_without_storeys_and_odd_shapes(tmp_path):
     r = read_ifc(path)
     assert len(r.storeys) == 1 and r["wx"].storey == -1 and r["w1"].storey == 0
     assert "n" not in r and "wi" not in r and "flat" not in r
+
+
+def test_offset_as_map_conversion(tmp_path):
+    m = hand_model(rot_z(-15, (1, 2, 0)), offset=(4.5e5, 5.4e6, 35.0))
+    path = str(tmp_path / "geo.ifc")
+    write_ifc(m, path, params=IfcWriteParams(georeference="map_conversion", crs_name="EPSG:25832"))
+    assert _errors(path) == []
+    f = ifcopenshell.open(path)
+    (mc,) = f.by_type("IfcMapConversion")
+    assert (mc.Eastings, mc.Northings, mc.OrthogonalHeight) == (4.5e5, 5.4e6, 35.0)
+    assert mc.TargetCRS.Name == "EPSG:25832"
+    (site,) = f.by_type("IfcSite")
+    assert np.allclose(site.ObjectPlacement.RelativePlacement.Location.Coordinates, [1, 2, 0])
+    r = read_ifc(path)
+    assert np.allclose(r.offset, m.offset) and np.allclose(r.transform, m.transform)
+    assert np.allclose(r["r1"].bounds, m["r1"].bounds, atol=1e-6)
+    assert _rels(r) == _rels(m)
+    with pytest.raises(InputError, match="georeference"):
+        write_ifc(m, str(tmp_path / "x.ifc"), params=IfcWriteParams(georeference="somewhere"))

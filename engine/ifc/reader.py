@@ -173,9 +173,11 @@ class _Reader:
                 offset = np.floor(allv.min(axis=0))
                 offset[2] = 0.0
         tinv = np.linalg.inv(t)
+        # our files with the offset in an IfcMapConversion have it out of the placements
+        placed_offset = np.zeros(3) if self.ours and prov.get("OffsetIn") == "map_conversion" else offset
 
         def to_model(v):
-            q = np.asarray(v, dtype=np.float64).reshape(-1, 3) - offset
+            q = np.asarray(v, dtype=np.float64).reshape(-1, 3) - placed_offset
             return q @ tinv[:3, :3].T + tinv[:3, 3]
 
         # storeys

@@ -78,6 +78,13 @@ class IfcWriteParams:
     """Tolerance on ``RᵀR = I`` for the model transform to go into the site placement."""
     geometric_boundaries: bool = True
     """Also write one-sided boundaries for walls and slabs touching a space without a relation."""
+    georeference: str = "placement"
+    """Where ``model.offset`` goes: ``"placement"`` (the site's placement: world coordinates
+    in the file are the original ones) or ``"map_conversion"`` (an ``IfcMapConversion``
+    with Eastings, Northings, OrthogonalHeight = offset; placements stay near the origin)."""
+    crs_name: str = "LOCAL"
+    """Name of the ``IfcProjectedCRS`` target of the map conversion (e.g. "EPSG:25832");
+    the offset's coordinate system is not known to the engine."""
 
 
 # --------------------------------------------------------------------------- public API
@@ -123,7 +130,11 @@ def build_ifc(model: BuildingModel, *, schema: str = "IFC4", params: Optional[If
     if not any(s.type != ShapeType.NONE for s in model.shapes):
         raise InputError("the model has no shapes to write", path)
     p = Progress.wrap(progress, should_stop)
-    return _Writer(model, schema, params or IfcWriteParams(), p).run()
+    params = params or IfcWriteParams()
+    if params.georeference not in ("placement", "map_conversion"):
+        raise InputError(f"georeference must be 'placement' or 'map_conversion', not {params.georeference!r}",
+                         path)
+    return _Writer(model, schema, params, p).run()
 
 
 # --------------------------------------------------------------------------- writer
@@ -160,15 +171,16 @@ class _Writer:
     def _frame(self):
         m = self.model
         t = np.asarray(m.transform, dtype=np.float64)
+        in_site = self.params.georeference == "placement"
         if rigid_part(t, self.params.rigid_tol):
             site = t.copy()
-            site[:3, 3] += m.offset
             bake = None
         else:
             log.warning("model transform is not rigid: applying it to the vertices")
             site = np.eye(4)
-            site[:3, 3] = m.offset
             bake = t
+        if in_site:
+            site[:3, 3] += m.offset
         self.site_matrix = site
         for s in m.shapes:
             g = s.geometry
@@ -290,6 +302,13 @@ class _Writer:
                                             target_view="GRAPH_VIEW", parent=model_ctx)
         self.footprint = api.context.add_context(f, context_type="Model", context_identifier="FootPrint",
                                                  target_view="SKETCH_VIEW", parent=model_ctx)
+        if self.params.georeference == "map_conversion":
+            import ifcopenshell.api.georeference  # noqa: F401
+
+            api.georeference.add_georeferencing(f, ifc_class="IfcMapConversion", name=self.params.crs_name)
+            e, n, h = (float(c) for c in m.offset)
+            api.georeference.edit_georeferencing(
+                f, coordinate_operation={"Eastings": e, "Northings": n, "OrthogonalHeight": h})
         self._provenance(project)
 
         site = api.root.create_entity(f, ifc_class="IfcSite", name="Site")
@@ -342,6 +361,7 @@ class _Writer:
             "ModelName": self.model.name or None,
             "Transform": dumps(np.asarray(self.model.transform)),
             "Offset": dumps(np.asarray(self.model.offset)),
+            "OffsetIn": self.params.georeference,
             "StoreyCount": len(self.storey_list),
         })
 
