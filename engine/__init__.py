@@ -7,6 +7,7 @@ from .errors import (Cancelled, EmptyCloudError, FormatError, IndoorError, Input
                      MissingDependencyError, ReconstructionError)
 from .model import (BuildingModel, Polyhedron, Provenance, Relation, Scope, Shape, ShapeType,
                     Storey, Surface)
+from .io import read_point_cloud, write_ply
 from .pointcloud import PointCloud
 from .progress import Progress
 
@@ -15,7 +16,7 @@ __version__ = "0.1.0"
 __all__ = [
     "__version__",
     "BuildingModel", "Polyhedron", "Provenance", "Relation", "Scope", "Shape", "ShapeType",
-    "Storey", "Surface", "PointCloud", "Progress",
+    "Storey", "Surface", "PointCloud", "Progress", "read_point_cloud", "write_ply",
     "IndoorError", "InputError", "FormatError", "EmptyCloudError", "ReconstructionError",
     "MissingDependencyError", "Cancelled",
 ]

@@ -106,6 +106,7 @@ def cmd_info(args) -> int:
         ]
         if r["dropped_nonfinite"]:
             lines.append(f"  dropped       {r['dropped_nonfinite']:,} non-finite rows")
+        lines += [f"  warning       {w}" for w in r["warnings"]]
     _emit(args, {"files": results, "failed": failures}, lines)
     return 1 if failures else 0
 

@@ -51,6 +51,8 @@ class PointCloud:
         Path of the file the cloud came from ("" when built in memory).
     dropped_nonfinite : int
         Rows dropped by the reader because a coordinate was NaN or infinite.
+    warnings : tuple of str
+        Reader warnings a user should see (e.g. coordinates that look like millimetres).
     """
 
     xyz: np.ndarray
@@ -63,8 +65,10 @@ class PointCloud:
     fields: Mapping[str, np.ndarray] = field(default_factory=dict)
     source: str = ""
     dropped_nonfinite: int = 0
+    warnings: tuple = ()
 
     def __post_init__(self):
+        object.__setattr__(self, "warnings", tuple(self.warnings))
         xyz = np.ascontiguousarray(self.xyz, dtype=np.float64)
         if xyz.ndim != 2 or xyz.shape[1] != 3:
             raise ValueError(f"xyz has shape {xyz.shape}, expected (n, 3)")
@@ -139,6 +143,8 @@ class PointCloud:
             offset=self.offset,
             fields={k: v[index] for k, v in self.fields.items()},
             source=self.source,
+            dropped_nonfinite=self.dropped_nonfinite,
+            warnings=self.warnings,
         )
 
     def transformed(self, matrix: np.ndarray) -> "PointCloud":
@@ -213,4 +219,5 @@ class PointCloud:
             "mean_spacing_m": self.mean_spacing(),
             "scans": self.scan_count,
             "dropped_nonfinite": int(self.dropped_nonfinite),
+            "warnings": list(self.warnings),
         }

@@ -16,8 +16,8 @@ Every reader
   ``offset_round_m`` (100 m) is subtracted; the offset is recorded in ``cloud.offset``, so
   float32 in Blender keeps millimetres;
 * checks units: a bounding box larger than ``max_indoor_extent_m`` (2 km) that would be a
-  plausible building in millimetres logs a warning and sets the attribute
-  ``cloud.units_warning`` (a message; absent otherwise). Coordinates are **not** rescaled —
+  plausible building in millimetres logs a warning and adds it to ``cloud.warnings``
+  (read it with :func:`units_warning`). Coordinates are **not** rescaled —
   a guessed rescale could silently corrupt a large site; the user converts the file.
 * streams large files in chunks and reports progress per chunk; ``should_stop`` cancels
   (:class:`~engine.errors.Cancelled`).
@@ -29,7 +29,7 @@ from typing import Optional
 
 from ..errors import InputError
 from ..pointcloud import PointCloud
-from ._common import UNITS_ATTRIBUTE, ReadParams, check_file, suspect_units
+from ._common import ReadParams, check_file, suspect_units
 from .e57 import read_e57
 from .las import read_las
 from .pcd import lzf_decompress, read_pcd
@@ -59,7 +59,7 @@ SUPPORTED_EXTENSIONS = tuple(_READERS)
 
 def units_warning(cloud: PointCloud) -> Optional[str]:
     """The reader's warning that the coordinates look like millimetres, or None."""
-    return getattr(cloud, UNITS_ATTRIBUTE, None)
+    return next((w for w in cloud.warnings if "millimetre" in w), None)
 
 
 def read_point_cloud(path, *, progress=None, should_stop=None,

@@ -12,14 +12,10 @@ import numpy as np
 from ..errors import EmptyCloudError, InputError
 from ..pointcloud import MIN_POINTS, PointCloud
 
-__all__ = ["ReadParams", "check_file", "finish_cloud", "colors_to_u8", "suspect_units", "UNITS_ATTRIBUTE"]
+__all__ = ["ReadParams", "check_file", "finish_cloud", "colors_to_u8", "suspect_units"]
 
 log = logging.getLogger(__name__)
 
-UNITS_ATTRIBUTE = "units_warning"
-"""Name of the extra attribute a reader sets on the returned cloud when the coordinates
-look like millimetres (see :func:`suspect_units`); read it with
-``getattr(cloud, UNITS_ATTRIBUTE, None)``."""
 
 
 @dataclass(frozen=True)
@@ -214,10 +210,8 @@ def finish_cloud(
     cloud = PointCloud(
         xyz=xyz, colors=colors, intensity=intensity, normals=normals, scan_index=scan_index,
         scanner_positions=scanner_positions, offset=base + extra, fields=fields, source=path,
-        dropped_nonfinite=dropped,
+        dropped_nonfinite=dropped, warnings=(warning,) if warning else (),
     )
     if warning:
         log.warning("%s: %s", path, warning)
-        # PointCloud has no slot for warnings yet: attach the flag as an extra attribute.
-        object.__setattr__(cloud, UNITS_ATTRIBUTE, warning)
     return cloud
