@@ -493,3 +493,28 @@ def test_offset_as_map_conversion(tmp_path):
     assert _rels(r) == _rels(m)
     with pytest.raises(InputError, match="georeference"):
         write_ifc(m, str(tmp_path / "x.ifc"), params=IfcWriteParams(georeference="somewhere"))
+
+
+def test_progress_and_cancel(tmp_path):
+    from engine import Cancelled
+
+    m = hand_model()
+    path = tmp_path / "p.ifc"
+    seen = []
+    write_ifc(m, path, progress=lambda f, msg: seen.append(f))
+    assert seen == sorted(seen) and seen[-1] == pytest.approx(1.0)
+    seen.clear()
+    read_ifc(path, progress=lambda f, msg: seen.append(f))
+    assert seen == sorted(seen) and seen[-1] == pytest.approx(1.0)
+    calls = []
+
+    def stop_after_a_while():
+        calls.append(1)
+        return len(calls) > 3
+
+    out = tmp_path / "cancelled.ifc"
+    with pytest.raises(Cancelled):
+        write_ifc(m, out, should_stop=stop_after_a_while)
+    assert not out.exists()
+    with pytest.raises(Cancelled):
+        read_ifc(path, should_stop=lambda: True)
