@@ -60,6 +60,30 @@ def thin_points(pts: np.ndarray, cell: float) -> np.ndarray:
     return pts[np.sort(first)]
 
 
+def _alpha_simplices(xy: np.ndarray, r_alpha: float) -> np.ndarray:
+    """(m, 3) int64 vertex indices of the alpha-shape triangles of ``xy`` (see
+    :func:`alpha_triangles`)."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(xy) < 3:
+        return np.zeros((0, 3), dtype=np.int64)
+    from scipy.spatial import Delaunay, QhullError
+
+    try:
+        tri = Delaunay(xy)
+    except (QhullError, ValueError):
+        return np.zeros((0, 3), dtype=np.int64)
+    t = xy[tri.simplices]
+    a = np.linalg.norm(t[:, 1] - t[:, 2], axis=1)
+    b = np.linalg.norm(t[:, 0] - t[:, 2], axis=1)
+    c = np.linalg.norm(t[:, 0] - t[:, 1], axis=1)
+    area2 = np.abs((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1])
+                   - (t[:, 1, 1] - t[:, 0, 1]) * (t[:, 2, 0] - t[:, 0, 0]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = a * b * c / (2.0 * area2)
+    keep = np.isfinite(r) & (r < r_alpha)
+    return tri.simplices[keep].astype(np.int64)
+
+
 def alpha_triangles(xy: np.ndarray, r_alpha: float) -> np.ndarray:
     """Triangles of the 2-D alpha shape: Delaunay triangles with circumradius < ``r_alpha``.
 
@@ -147,11 +171,13 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
 
     xy = np.array(xy, dtype=np.float64).reshape(-1, 2)
     segs = np.asarray(blockers, dtype=np.float64).reshape(-1, 2, 2)
+    snap_seg = np.full(len(xy), -1, dtype=np.int64)
+    snap_side = np.zeros(len(xy))
     if len(segs) and snap > 0 and len(xy):
         from scipy.spatial import cKDTree
 
         tree = cKDTree(xy)
-        for p, q in segs:
+        for k, (p, q) in enumerate(segs):
             d = q - p
             L = float(np.linalg.norm(d))
             if L <= 0:
@@ -162,12 +188,15 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
                 continue
             rel = xy[idx] - p
             t = rel @ u
-            dist = np.abs(rel @ np.array([-u[1], u[0]]))
-            m = (dist <= snap) & (t >= 0) & (t <= L)
+            sd = rel @ np.array([-u[1], u[0]])
+            m = (np.abs(sd) <= snap) & (t >= 0) & (t <= L) & (snap_seg[idx] < 0)
             xy[idx[m]] = p + t[m, None] * u
-    t = alpha_triangles(xy, r_alpha)
-    if len(t) == 0:
+            snap_seg[idx[m]] = k
+            snap_side[idx[m]] = np.where(sd[m] >= 0, 1.0, -1.0)
+    simp = _alpha_simplices(xy, r_alpha)
+    if len(simp) == 0:
         return shapely.GeometryCollection()
+    t = xy[simp]
     polys = shapely.polygons(t)
     if len(segs):
         lines = shapely.linestrings(segs)
@@ -177,9 +206,15 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
             d = segs[li, 1] - p0
             nrm = np.column_stack([-d[:, 1], d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
             sd = np.einsum("kij,kj->ki", t[ti] - p0[:, None, :], nrm)
-            cross = (sd.max(axis=1) > tolerance) & (sd.min(axis=1) < -tolerance)
+            bad = (sd.max(axis=1) > tolerance) & (sd.min(axis=1) < -tolerance)
+            # a corner snapped onto this blocker came from one side: no corner on the other
+            vs = simp[ti]
+            mine = snap_seg[vs] == li[:, None]
+            side = np.where(mine, snap_side[vs], 0.0).sum(axis=1)
+            side = np.sign(side)
+            bad |= (side != 0) & np.any(sd * side[:, None] < -tolerance, axis=1)
             keep = np.ones(len(polys), bool)
-            keep[ti[cross]] = False
+            keep[ti[bad]] = False
             polys = polys[keep]
         if len(polys) == 0:
             return shapely.GeometryCollection()

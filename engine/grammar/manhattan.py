@@ -41,13 +41,16 @@ log = logging.getLogger(__name__)
 
 # --------------------------------------------------------------------------- rule 1: place
 def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyFrame,
-                     params: ManhattanParams, spacing: float) -> bool:
+                     params: ManhattanParams, spacing: float, ceiling_cells=None) -> bool:
     """Is the vertical surface at ``position`` a wall, i.e. does it reach a ceiling?
 
-    ``pts`` : (n, 3) points facing ``axis``. Walls run up to a ceiling; shelves, cabinets
+    ``pts`` : (n, 3) points of the storey except those facing the other horizontal axis
+    (near a ceiling the PCA normals of a wall are spoiled by the ceiling's points, so
+    facing ``axis`` is not required; the walls the plane cuts through are left out). Walls run up to a ceiling; shelves, cabinets
     and tables stop short of it. The surface must cover at least ``min_wall_top_length``
     (metres, counted in σ-cells along the wall) within ``wall_top_band`` below one of the
-    storey's ceiling levels. (Extension of SPEC.md rule 1, which takes every peak:
+    storey's ceiling levels, under that ceiling (``ceiling_cells``: per ceiling level a
+    membership test of its occupied ``level_cell`` cells, or None). (Extension of SPEC.md rule 1, which takes every peak:
     furniture faces would cut rooms into slices whose common faces look closed.)
     """
     near = np.abs(pts[:, axis] - position) <= max(1.5 * params.bin_size, params.shape_buffer / 2)
@@ -55,11 +58,44 @@ def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyF
         return False
     q = pts[near]
     o = 1 - axis
-    for c in frame.ceilings:
-        band = (q[:, 2] >= c - params.wall_top_band) & (q[:, 2] <= c + params.shape_buffer)
+    lift = 3.0 * float(params.noise or 0.0)  # stay clear of the (noisy) ceiling itself
+    if ceiling_cells is None:
+        ceiling_cells = [None] * len(frame.ceilings)
+    for c, cells in zip(frame.ceilings, ceiling_cells):
+        band = (q[:, 2] >= c - lift - params.wall_top_band) & (q[:, 2] <= c - lift)
+        if cells is not None and band.any():
+            # only under (or next to) that ceiling: a shelf in a high room must not reach
+            # the ceiling level of a low room elsewhere
+            k = np.floor(q[band][:, :2] / params.level_cell).astype(np.int64)
+            hit = np.zeros(int(band.sum()), dtype=bool)
+            for du in (-1, 0, 1):
+                for dv in (-1, 0, 1):
+                    hit |= cells(k + np.array([du, dv]))
+            band[np.flatnonzero(band)[~hit]] = False
         if np.unique(np.floor(q[band, o] / spacing)).size * spacing >= params.min_wall_top_length:
             return True
     return False
+
+
+def _cell_lookup(xy: np.ndarray, cell: float):
+    """A membership test for the level_cell cells holding ``xy`` (n, 2) metres:
+    returns f(k) → bool for (m, 2) int cell indices."""
+    if len(xy) == 0:
+        return lambda k: np.zeros(len(k), dtype=bool)
+    c = np.unique(np.floor(xy / cell).astype(np.int64), axis=0)
+    lo = c.min(axis=0) - 1
+    shape = c.max(axis=0) - lo + 2
+    grid = np.zeros(tuple(shape), dtype=bool)
+    grid[c[:, 0] - lo[0], c[:, 1] - lo[1]] = True
+
+    def f(k):
+        i = k - lo
+        ok = (i[:, 0] >= 0) & (i[:, 0] < shape[0]) & (i[:, 1] >= 0) & (i[:, 1] < shape[1])
+        out = np.zeros(len(k), dtype=bool)
+        out[ok] = grid[i[ok, 0], i[ok, 1]]
+        return out
+
+    return f
 
 
 def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, storey: int,
@@ -83,13 +119,27 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     along = [n[:, a] >= cos_t for a in range(3)]
 
     # place: peaks of x (points facing x) and y (points facing y) → intervals
+    hor = along[2]
+    ceiling_cells = [_cell_lookup(p[hor & (np.abs(p[:, 2] - c) <= d)][:, :2], params.level_cell)
+                     for c in frame.ceilings]
+    raw = []
+    for a in (0, 1):
+        o, sel = 1 - a, along[a]
+        raw.append(histogram_peaks(p[sel, a], np.column_stack([p[sel, o], p[sel, 2]]), params, spacing,
+                                   params.min_wall_area))
     cuts = []
     for a in (0, 1):
         o = 1 - a
-        sel = along[a]
-        peaks = histogram_peaks(p[sel, a], np.column_stack([p[sel, o], p[sel, 2]]), params, spacing,
-                                params.min_wall_area)
-        peaks = [pk for pk in peaks if _reaches_ceiling(p[sel], a, pk.position, frame, params, spacing)]
+        # the ceiling test looks at the points near the plane that are not on the
+        # perpendicular walls it cuts through (their normals are spoiled near a ceiling)
+        other = np.array([pk.position for pk in raw[o]])
+        off = np.ones(len(p), dtype=bool)
+        if len(other):
+            j = np.clip(np.searchsorted(other, p[:, o]), 1, max(len(other) - 1, 1))
+            dist = np.minimum(np.abs(p[:, o] - other[j - 1]), np.abs(p[:, o] - other[np.minimum(j, len(other) - 1)]))
+            off = dist > d
+        peaks = [pk for pk in raw[a]
+                 if _reaches_ceiling(p[off & ~along[o]], a, pk.position, frame, params, spacing, ceiling_cells)]
         if len(peaks) < 2:
             raise ReconstructionError(f"storey {storey}: fewer than two wall surfaces facing "
                                       f"{'xy'[a]} (found {len(peaks)}); is the cloud aligned?")
@@ -203,7 +253,7 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
         # ceilings higher than the storey's main ceiling are found too
         fl = sorted((s.floor_z, s.ceiling_z) if hasattr(s, "floor_z") else (float(s[0]), float(s[1]))
                     for s in storeys)
-        m = max(3 * params.shape_buffer, 2 * params.bin_size)
+        m = params.min_slab_thickness / 2  # below the floor, not into the slab under it
         top = float(xyz[:, 2].max())
         chunks = [(lo - m, (fl[i + 1][0] - m) if i + 1 < len(fl) else max(top, hi + m))
                   for i, (lo, hi) in enumerate(fl)]

@@ -47,7 +47,7 @@ class ManhattanParams:
     Point-on-face counts ignore points within 2 σ_noise of a face's edge."""
     min_wall_area: float = 1.5
     """A vertical histogram peak must hold at least this much surface (points × σ²), m²."""
-    wall_top_band: float = 0.5
+    wall_top_band: float = 0.15
     """A wall surface reaches a ceiling: it must have points within this band below a
     ceiling level (furniture stops short of it), metres."""
     min_wall_top_length: float = 0.5

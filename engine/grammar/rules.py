@@ -54,14 +54,15 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float) -> tup
 
     The conditions, in order:
 
-    * thin, IPoF(sides) ≥ τ and IPoF(top) < τ → wall. (SPEC.md: thin and IPoF(sides)
-      ≥ τ. The extra "top not seen" condition keeps a thin slice of a room between a wall
-      and a cupboard, whose top is ceiling, from becoming a wall.)
+    * thin, IPoF(sides) ≥ τ, IPoF(top) < τ and the top touches no interior shape →
+      wall. (SPEC.md: thin and IPoF(sides) ≥ τ. The extra "top not seen" conditions keep
+      a thin slice of a room between a wall and a cupboard, whose top is ceiling or the
+      room above, from becoming a wall.)
     * IPoF(top) ≥ τ, or the top touches an interior shape → interior space;
     * otherwise → exterior space.
     """
     sides, top = support.get("ipof_sides", 0.0), support.get("ipof_top", 0.0)
-    if thin and sides >= tau and top < tau:
+    if thin and sides >= tau and top < tau and not above_interior:
         return ShapeType.WALL, f"classify: thin, IPoF(sides)={sides:.2f} >= tau={tau:g}, IPoF(top)={top:.2f} < tau -> wall"
     if top >= tau:
         return ShapeType.INTERIOR, f"classify: IPoF(top)={top:.2f} >= tau={tau:g} -> interior"
