@@ -466,3 +466,19 @@ def test_cli_synth_writes_scan_truth_variants_and_png(tmp_path, monkeypatch):
     bad.quiet, bad.json = True, False
     with pytest.raises(InputError, match="broken.json"):
         bad.func(bad)
+
+
+def test_progress_and_cancel():
+    from engine.errors import Cancelled
+
+    seen = []
+    preset("eval_demo", seed=0, target_points=5000, progress=lambda f, m: seen.append(f))
+    assert seen[-1] == 1.0 and all(b >= a for a, b in zip(seen, seen[1:])) and len(seen) >= 3
+    calls = []
+
+    def stop():
+        calls.append(1)
+        return len(calls) > 2
+
+    with pytest.raises(Cancelled):
+        preset("eval_demo", seed=0, target_points=5000, should_stop=stop)

@@ -80,7 +80,7 @@ def write_scene(scene, out_dir, *, png: bool = True, ifc: bool = True) -> dict:
 
         t0 = time.perf_counter()
         files["top"] = os.path.join(out_dir, f"{name}_top.png")
-        top_view_png(files["top"], scene.cloud, scene.truth, storey=0,
+        top_view_png(files["top"], scene.cloud, scene.truth,
                      title=f"{name} (seed {scene.seed}, σ = {scene.noise_sigma * 1000:.0f} mm, "
                            f"{len(scene.cloud):,} points)")
         t_png = time.perf_counter() - t0
