@@ -34,7 +34,7 @@ from ..errors import InputError
 from ..model import BuildingModel
 from ..progress import Progress
 from .loading import frame_transform, transform_model
-from .patches import PlanarPatch, overlap_on, patches_from_model, points_inside, sample_patch_grid
+from .patches import PlanarPatch, overlap_on, safe_union, patches_from_model, points_inside, sample_patch_grid
 
 __all__ = ["EvaluationParams", "EvaluationResult", "evaluate", "DEFAULT_BUFFERS", "GROUPS"]
 
@@ -201,15 +201,35 @@ def _candidates(ref: list, src: list, params: EvaluationParams, use_storey: bool
     return out
 
 
-def _union_area(pieces) -> float:
-    from shapely import unary_union
+class _Overlap:
+    """``overlap_on(target, other, b)`` for many b: the full projection is computed once and
+    reused for every buffer that holds the whole of ``other``; none for buffers that hold
+    none of it; only buffers cutting through ``other`` clip it to the slab."""
 
+    def __init__(self, target: PlanarPatch, other: PlanarPatch, pts: np.ndarray):
+        self.target, self.other = target, other
+        d = target.signed_distance(pts)
+        self.near = float(0.0 if d.min() <= 0 <= d.max() else np.abs(d).min())
+        self.far = float(np.abs(d).max())
+        self._full = False
+
+    def at(self, b: float):
+        if b < self.near:
+            return None
+        if b >= self.far:
+            if self._full is False:
+                self._full = overlap_on(self.target, self.other, np.inf)
+            return self._full
+        return overlap_on(self.target, self.other, b)
+
+
+def _union_area(pieces) -> float:
     pieces = [p for p in pieces if p is not None]
     if not pieces:
         return 0.0
     if len(pieces) == 1:
         return float(pieces[0].area)
-    return float(unary_union(pieces).area)
+    return float(safe_union(pieces).area)
 
 
 def _visible_mask(ref: list, visible) -> np.ndarray:
@@ -273,13 +293,17 @@ def evaluate(source, reference, params: Optional[EvaluationParams] = None, *, vi
 
     ref_cov_area = np.zeros((len(ref), k))
     src_cov_area = np.zeros((len(src), k))
+    src_pts = [np.vstack(s.outline3d()) for s in src]
+    ref_pts = [np.vstack(r.outline3d()) for r in ref]
+    ref_pairs = {j: [_Overlap(ref[j], src[i], src_pts[i]) for i in cand[j]] for j in range(len(ref))
+                 if vis[j] and cand[j]}
+    src_pairs = {i: [_Overlap(src[i], ref[j], ref_pts[j]) for j in js] for i, js in back.items()}
     for bi, b in enumerate(buffers):
         p(0.05 + 0.75 * bi / k, f"buffer {b * 100:.0f} cm")
-        for j, r in enumerate(ref):
-            if vis[j] and cand[j]:
-                ref_cov_area[j, bi] = _union_area([overlap_on(r, src[i], b) for i in cand[j]])
-        for i, js in back.items():
-            src_cov_area[i, bi] = _union_area([overlap_on(src[i], ref[j], b) for j in js])
+        for j, pairs in ref_pairs.items():
+            ref_cov_area[j, bi] = _union_area([o.at(b) for o in pairs])
+        for i, pairs in src_pairs.items():
+            src_cov_area[i, bi] = _union_area([o.at(b) for o in pairs])
 
     # accuracy samples
     p(0.8, "accuracy samples")

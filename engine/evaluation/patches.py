@@ -204,8 +204,6 @@ def merge_coplanar(patches: Sequence[PlanarPatch]) -> list[PlanarPatch]:
 
     Returns one patch per connected planar region (the key of the first member).
     """
-    from shapely import unary_union
-
     groups: dict = {}
     for p in patches:
         groups.setdefault((p.shape_id, p.kind), []).append(p)
@@ -228,12 +226,55 @@ def merge_coplanar(patches: Sequence[PlanarPatch]) -> list[PlanarPatch]:
             if len(same) == 1:
                 out.append(p)
                 continue
-            geom = unary_union([p.geom] + [project_to(q.geom, q, p) for q in same[1:]]).buffer(0)
+            geom = safe_union([p.geom] + [project_to(q.geom, q, p) for q in same[1:]]).buffer(0)
             for k, part in enumerate(_parts(geom)):
                 key = p.key if k == 0 else f"{p.key}.{k}"
                 out.append(PlanarPatch(key, p.shape_id, p.face, p.kind, p.storey, p.shape_type, p.normal, p.rho,
                                        p.origin, p.u, p.v, part, p.name))
     return out
+
+
+GRID = 1e-6
+"""Precision grid (metres) geometries are snapped to when an overlay fails on round-off."""
+
+
+def _repair(g):
+    import shapely
+
+    try:
+        g = shapely.make_valid(g).buffer(0)
+    except shapely.errors.GEOSException:
+        g = g.buffer(0)
+    try:
+        return shapely.set_precision(g, GRID)
+    except shapely.errors.GEOSException:
+        return shapely.set_precision(g, GRID, mode="pointwise").buffer(0)
+
+
+def safe_intersection(a, b):
+    """``a ∩ b``; on a GEOS topology error (nearly degenerate input) retry on repaired
+    geometries snapped to a 1 µm grid; if that fails too, the overlap is counted as empty
+    (and logged)."""
+    import shapely
+
+    try:
+        return a.intersection(b)
+    except shapely.errors.GEOSException:
+        try:
+            return shapely.intersection(_repair(a), _repair(b), grid_size=GRID)
+        except shapely.errors.GEOSException as e:
+            log.warning("overlay failed even after repair (%s); counted as no overlap", e)
+            return shapely.Polygon()
+
+
+def safe_union(geoms):
+    """Boolean union of a list of geometries, robust like :func:`safe_intersection`."""
+    import shapely
+
+    try:
+        return shapely.unary_union(geoms)
+    except shapely.errors.GEOSException:
+        return shapely.unary_union([_repair(g) for g in geoms], grid_size=GRID)
 
 
 def _strip(patch: PlanarPatch, other: PlanarPatch, b: float):
@@ -243,7 +284,7 @@ def _strip(patch: PlanarPatch, other: PlanarPatch, b: float):
     g = np.array([other.normal @ patch.u, other.normal @ patch.v])
     c = float(other.normal @ patch.origin - other.rho)
     gn = float(np.linalg.norm(g))
-    if gn < 1e-12:
+    if gn < 1e-12 or not np.isfinite(b):
         return patch.geom if abs(c) <= b else None
     minx, miny, maxx, maxy = patch.geom.bounds
     big = 2.0 * (abs(minx) + abs(maxx) + abs(miny) + abs(maxy)) + abs(c) / gn + 1.0
@@ -252,7 +293,7 @@ def _strip(patch: PlanarPatch, other: PlanarPatch, b: float):
     centre = -c / gn * gh  # the points where the distance is 0
     half = b / gn
     corners = [centre + s * half * gh + t * big * perp for s, t in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
-    inter = patch.geom.intersection(Polygon(corners))
+    inter = safe_intersection(patch.geom, Polygon(corners))
     return None if inter.is_empty else inter
 
 
@@ -267,7 +308,7 @@ def overlap_on(target: PlanarPatch, other: PlanarPatch, b: float):
     if part is None:
         return None
     proj = project_to(part, other, target)
-    inter = proj.intersection(target.geom)
+    inter = safe_intersection(proj, target.geom)
     return None if inter.is_empty or inter.area <= 0 else inter
 
 
