@@ -14,7 +14,7 @@ DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
 
 
 def _working(cloud):
-    w, _ = clean(cloud)
+    w, _, _ = clean(cloud)
     return estimate_normals(w)
 
 

@@ -12,7 +12,7 @@ from seg_scenes import rotation, two_room_office
 
 
 def _prep(cloud):
-    w, _ = clean(cloud)
+    w, _, _ = clean(cloud)
     w = estimate_normals(w)
     st = detect_storeys(w)
     return w, st

@@ -9,11 +9,13 @@ Method (per storey)
    along the wall line.
 2. *Extension, only as far as needed.* Segments are **not** extended to infinite lines
    (that multiplies the cells: n walls give O(n²) faces). Each end of a segment is
-   extended along its line to the **first** other wall line it meets, provided the meeting
-   point is within ``max_extension`` of the end and lies on (or within ``max_extension`` of)
-   the other wall's segment — this closes corners and T-junctions left open by occlusion
-   and door openings at wall ends. The end goes ``snap_overshoot`` past the crossing so
-   noding sees it. An end that meets nothing stays where the data put it: a dangling
+   extended along its line, at most ``max_extension``, to the **farthest** other wall
+   *segment* it crosses within that distance (so an occluded corner is closed even when a
+   shelf face reaching the ceiling stands in front of it); when it crosses no segment, to
+   the **first** other wall *line* whose segment ends within ``max_extension`` of the
+   meeting point (two walls both stopping short of their common corner). This closes
+   corners and T-junctions left open by occlusion and by door openings at wall ends. The
+   end goes ``snap_overshoot`` past the crossing so noding sees it. An end that meets nothing stays where the data put it: a dangling
    edge, which polygonize drops, so it makes no cell. Door openings in the middle of a wall
    are inside its segment (the segment spans the support's min..max), so rooms stay closed.
 3. *Arrangement.* The segments and the building's extent (the x, y box of the storey's
@@ -300,7 +302,7 @@ def wall_segments(walls: Sequence[Plane], params: CellParams = CellParams()) -> 
             other = segs[i, 1 - end]
             if np.dot(p - other, d) < 0:
                 d = -d
-            best = None
+            best, best_proper = None, None
             for j in range(m):
                 if j == i:
                     continue
@@ -322,6 +324,11 @@ def wall_segments(walls: Sequence[Plane], params: CellParams = CellParams()) -> 
                     continue  # the segment already crosses that line
                 if best is None or s < best:
                     best = s
+                inside = params.snap_overshoot / max(ln, 1e-9)
+                if -inside <= t <= 1 + inside and (best_proper is None or s > best_proper):
+                    best_proper = s
+            if best_proper is not None:
+                best = best_proper
             if best is not None:
                 out[i, end] = p + (best + params.snap_overshoot) * d
     return out

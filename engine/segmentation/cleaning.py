@@ -19,6 +19,11 @@ __all__ = ["drop_nonfinite", "voxel_downsample", "remove_statistical_outliers", 
 
 log = logging.getLogger(__name__)
 
+_MAX_VOXEL_ROUNDS = 4
+"""At most this many enlargements of the voxel to reach ``max_working_points``."""
+_VOXEL_GROWTH_MARGIN = 1.05
+"""Enlarge the voxel a little more than the surface estimate so one round usually does."""
+
 
 def _name(cloud: PointCloud) -> str:
     return cloud.source or "point cloud"
@@ -59,17 +64,29 @@ def voxel_downsample(cloud: PointCloud, voxel_size: float) -> tuple[PointCloud, 
     if voxel_size <= 0 or n == 0:
         idx = np.arange(n, dtype=np.int64)
         return cloud, idx, idx
-    q = np.floor((cloud.xyz - cloud.xyz.min(axis=0)) / voxel_size).astype(np.int64)
+    kept, voxel_of = _voxel_keys(cloud.xyz, voxel_size, True)
+    return cloud.subset(kept), kept, voxel_of
+
+
+def _voxel_keys(xyz: np.ndarray, voxel_size: float, inverse: bool):
+    """(kept (m,) int64 sorted, voxel_of (n,) int64 or None) — see :func:`voxel_downsample`."""
+    q = np.floor((xyz - xyz.min(axis=0)) / voxel_size).astype(np.int64)
     dims = q.max(axis=0) + 1
     key = (q[:, 0] * dims[1] + q[:, 1]) * dims[2] + q[:, 2]
-    _, kept, voxel_of = np.unique(key, return_index=True, return_inverse=True)
-    voxel_of = voxel_of.reshape(-1).astype(np.int64)
-    order = np.argsort(kept, kind="stable")  # keep representatives in input order
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    kept = kept[order].astype(np.int64)
-    voxel_of = rank[voxel_of]
-    return cloud.subset(kept), kept, voxel_of
+    order = np.argsort(key, kind="stable")  # stable: the first point of a voxel comes first
+    ks = key[order]
+    first = np.ones(len(ks), bool)
+    first[1:] = ks[1:] != ks[:-1]
+    kept = order[first]
+    if not inverse:
+        return np.sort(kept), None
+    group = np.cumsum(first) - 1  # voxel number of each sorted point
+    rank_of_group = np.empty(len(kept), np.int64)
+    korder = np.argsort(kept, kind="stable")  # representatives in input order
+    rank_of_group[korder] = np.arange(len(kept))
+    voxel_of = np.empty(len(xyz), np.int64)
+    voxel_of[order] = rank_of_group[group]
+    return kept[korder].astype(np.int64), voxel_of
 
 
 def remove_statistical_outliers(cloud: PointCloud, neighbors: int, std_ratio: float) -> tuple[PointCloud, np.ndarray]:
@@ -89,7 +106,7 @@ def remove_statistical_outliers(cloud: PointCloud, neighbors: int, std_ratio: fl
     return (cloud if keep.all() else cloud.subset(keep)), keep
 
 
-def clean(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[PointCloud, np.ndarray]:
+def clean(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[PointCloud, np.ndarray, float]:
     """Non-finite rows dropped, voxel downsampling, statistical outlier removal.
 
     Returns
@@ -98,6 +115,9 @@ def clean(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[Point
         The cleaned working cloud.
     source_index : (m,) int64
         Index of each working point in the *finite* input (``drop_nonfinite(cloud)``).
+    voxel : float
+        The voxel edge actually used, metres (``params.voxel_size`` or larger, see
+        ``CleanParams.max_working_points``; 0 when downsampling is off).
 
     Raises
     ------
@@ -109,7 +129,17 @@ def clean(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[Point
         raise EmptyCloudError(
             f"only {len(finite)} usable points (at least {params.min_points} are needed to find "
             "walls, floors and ceilings)", cloud.source or None)
-    work, kept, _ = voxel_downsample(finite, params.voxel_size)
+    voxel = params.voxel_size
+    if voxel > 0:
+        kept, _ = _voxel_keys(finite.xyz, voxel, False)
+        for _ in range(_MAX_VOXEL_ROUNDS):
+            if len(kept) <= params.max_working_points:
+                break
+            voxel *= np.sqrt(len(kept) / params.max_working_points) * _VOXEL_GROWTH_MARGIN
+            kept, _ = _voxel_keys(finite.xyz, voxel, False)
+        work = finite.subset(kept)
+    else:
+        work, kept = finite, np.arange(len(finite), dtype=np.int64)
     if params.remove_outliers:
         work, keep = remove_statistical_outliers(work, params.outlier_neighbors, params.outlier_std_ratio)
         kept = kept[keep]
@@ -117,8 +147,8 @@ def clean(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[Point
         raise EmptyCloudError(
             f"only {len(work)} points left after downsampling to {params.voxel_size} m voxels "
             f"(at least {params.min_points} are needed)", cloud.source or None)
-    log.info("cleaned %s: %d -> %d working points", _name(cloud), len(cloud), len(work))
-    return work, kept
+    log.info("cleaned %s: %d -> %d working points (voxel %.3f m)", _name(cloud), len(cloud), len(work), voxel)
+    return work, kept, float(max(voxel, 0.0))
 
 
 def _o3d():

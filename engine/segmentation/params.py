@@ -31,6 +31,10 @@ class CleanParams:
     voxel_size: float = 0.03
     """Edge of the downsampling voxel, metres; one representative point is kept per voxel.
     0 disables downsampling. The original cloud is always kept for evaluation."""
+    max_working_points: int = 200_000
+    """When the voxel grid keeps more points than this, the voxel is enlarged (by the square
+    root of the excess: the points lie on surfaces) so the working cloud stays about this
+    size — this bounds the time of normals, RANSAC and cells (1M → a few seconds)."""
     remove_outliers: bool = True
     """Run the statistical outlier filter on the (downsampled) working cloud."""
     outlier_neighbors: int = 12
@@ -47,7 +51,10 @@ class NormalParams:
     """PCA normals over a neighbourhood (SPEC.md §1 "Normals")."""
 
     radius: float = 0.10
-    """Search radius of the neighbourhood, metres (about three voxels)."""
+    """Search radius of the neighbourhood, metres; :func:`preprocess` raises it to
+    ``radius_voxels`` × the voxel size actually used."""
+    radius_voxels: float = 3.0
+    """Minimum radius in voxels of the working cloud (so about 20 neighbours remain)."""
     max_nn: int = 30
     """At most this many neighbours enter the PCA."""
     orient_to_scanner: bool = True
@@ -136,9 +143,9 @@ class PlaneParams:
     """Inlier band in units of the plane's robust residual σ (1.4826 × MAD)."""
     max_distance_threshold: float = 0.08
     """Cap of the adaptive inlier band, metres (below half the thinnest wall)."""
-    iterations: int = 300
+    iterations: int = 200
     """RANSAC hypotheses per plane."""
-    score_sample: int = 3000
+    score_sample: int = 2000
     """Hypotheses are scored on a random sample of at most this many points of the tile's
     pool (the chosen one is then refined on all of them)."""
     min_points: int = 60
@@ -149,6 +156,9 @@ class PlaneParams:
     """A plane's support must occupy at least this share of its bounding rectangle on the
     plane (10 cm cells); occluded walls fill 0.3 and more, chance alignments of clutter
     much less."""
+    max_rejections: int = 5
+    """Stop searching a tile after this many rejected hypotheses in a row (only clutter is
+    left)."""
     max_planes_per_tile: int = 40
     """Stop searching a tile after this many planes."""
     angle_tolerance: float = THETA

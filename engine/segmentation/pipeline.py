@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
@@ -99,13 +99,14 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
 
     p(0.0, "cleaning")
     full = drop_nonfinite(cloud)
-    work, src = clean(full, params.clean)
+    work, src, voxel = clean(full, params.clean)
     lap("clean")
     p(0.1, "normals")
-    work = estimate_normals(work, params.normals)
+    nparams = replace(params.normals, radius=max(params.normals.radius, params.normals.radius_voxels * voxel))
+    work = estimate_normals(work, nparams)
     lap("normals")
     p(0.25, "alignment")
-    aligned, transform, res = align_manhattan(work, params.align, rng=rng, normal_params=params.normals,
+    aligned, transform, res = align_manhattan(work, params.align, rng=rng, normal_params=nparams,
                                               yaw=params.align_manhattan, return_result=True)
     m = np.linalg.inv(transform)
     full_aligned = full.transformed(m)

@@ -211,6 +211,7 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng):
     out = []
     pool = np.arange(len(pts))
     cos_agree = np.cos(params.normal_agreement)
+    rejected = 0
     while len(pool) >= params.min_points and len(out) < params.max_planes_per_tile:
         P, N = pts[pool], nrm[pool]
         h = params.iterations
@@ -236,8 +237,9 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng):
             SP, SN = P[sidx], N[sidx]
         else:
             SP, SN = P, N
-        dist = np.abs(hn @ SP.T - ho[:, None])
-        agree = np.abs(hn @ SN.T) >= cos_agree
+        hn32 = hn.astype(np.float32)
+        dist = np.abs(hn32 @ SP.T.astype(np.float32) - ho.astype(np.float32)[:, None])
+        agree = np.abs(hn32 @ SN.T.astype(np.float32)) >= cos_agree
         cnt = np.sum((dist <= params.distance_threshold) & agree, axis=1)
         best = int(np.argmax(cnt))
         if cnt[best] * len(P) / len(SP) < params.min_points:
@@ -256,7 +258,11 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng):
             # drop the hypothesis' inliers from the pool anyway so the search moves on
             # (they may still join a plane in the final assignment)
             pool = pool[~inl]
+            rejected += 1
+            if rejected >= params.max_rejections:
+                break
             continue
+        rejected = 0
         out.append((normal, offset, pool[inl], band))
         pool = pool[~inl]
     return out
