@@ -161,7 +161,10 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
         meets the segment is dropped — so the shape never bridges a wall.
     snap : points within this distance of a blocker (and within its extent) are moved onto
         it first, so the shape reaches the wall instead of stopping half a point spacing
-        short of it (metres; 0: no snapping).
+        short of it (metres; 0: no snapping). The side most of them came from is the
+        blocker's room side: a triangle meeting the blocker may then have no corner on the
+        other side (this stops triangles between the snapped points of the two faces of a
+        wall).
 
     Returns
     -------
@@ -171,12 +174,12 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
 
     xy = np.array(xy, dtype=np.float64).reshape(-1, 2)
     segs = np.asarray(blockers, dtype=np.float64).reshape(-1, 2, 2)
-    snap_seg = np.full(len(xy), -1, dtype=np.int64)
-    snap_side = np.zeros(len(xy))
+    room_side = np.zeros(len(segs))
     if len(segs) and snap > 0 and len(xy):
         from scipy.spatial import cKDTree
 
         tree = cKDTree(xy)
+        moves = []
         for k, (p, q) in enumerate(segs):
             d = q - p
             L = float(np.linalg.norm(d))
@@ -189,10 +192,12 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
             rel = xy[idx] - p
             t = rel @ u
             sd = rel @ np.array([-u[1], u[0]])
-            m = (np.abs(sd) <= snap) & (t >= 0) & (t <= L) & (snap_seg[idx] < 0)
-            xy[idx[m]] = p + t[m, None] * u
-            snap_seg[idx[m]] = k
-            snap_side[idx[m]] = np.where(sd[m] >= 0, 1.0, -1.0)
+            m = (np.abs(sd) <= snap) & (t >= 0) & (t <= L)
+            # the side the points came from (the room's side of this wall face)
+            room_side[k] = np.sign(np.sum(np.sign(sd[m])))
+            moves.append((idx[m], p + t[m, None] * u))
+        for idx, proj in moves:
+            xy[idx] = proj
     simp = _alpha_simplices(xy, r_alpha)
     if len(simp) == 0:
         return shapely.GeometryCollection()
@@ -207,11 +212,8 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
             nrm = np.column_stack([-d[:, 1], d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
             sd = np.einsum("kij,kj->ki", t[ti] - p0[:, None, :], nrm)
             bad = (sd.max(axis=1) > tolerance) & (sd.min(axis=1) < -tolerance)
-            # a corner snapped onto this blocker came from one side: no corner on the other
-            vs = simp[ti]
-            mine = snap_seg[vs] == li[:, None]
-            side = np.where(mine, snap_side[vs], 0.0).sum(axis=1)
-            side = np.sign(side)
+            # no corner on the far side of a face whose points came from one side
+            side = room_side[li]
             bad |= (side != 0) & np.any(sd * side[:, None] < -tolerance, axis=1)
             keep = np.ones(len(polys), bool)
             keep[ti[bad]] = False

@@ -1,0 +1,159 @@
+"""rjMCMC search on hand-made cell complexes (cells from the true wall lines).
+
+Scenes from ``test_generic_scenes``: a hexagonal hall with six trapezoid rooms (walls 60°
+apart) and a rotated house with a slanted wall; points sampled on the true room surfaces.
+"""
+import math
+
+import numpy as np
+import pytest
+import shapely
+
+from engine.grammar.coverage import (alpha_area, alpha_geometry, cellset_from_polygons, measure_coverage,
+                                     thin_points)
+from engine.grammar.generic import arrange_cells
+from engine.grammar.rjmcmc import RjmcmcParams, SpaceSearch, mdl_cost, naive_log_posterior, search_spaces
+from test_generic_scenes import Z0, Z1, hexagon_rooms, match_rooms, room_lines, sample_rooms, skew_rooms
+
+COV = dict(shape_buffer=0.05, r_alpha=0.2, thin=0.04)
+
+
+def _complex(rooms, seed=0):
+    cloud = sample_rooms(rooms, seed=seed)
+    b = shapely.union_all(rooms).bounds
+    ext = shapely.box(b[0] - 0.3, b[1] - 0.3, b[2] + 0.3, b[3] + 0.3)
+    cells = cellset_from_polygons(arrange_cells(room_lines(rooms), ext), (Z0, Z1))
+    lab = cloud.fields["label"]
+    wall, hor = cloud.xyz[lab == 0], cloud.xyz[lab > 0]
+    return cells, measure_coverage(cells, wall, hor, **COV), wall, hor
+
+
+@pytest.fixture(scope="module")
+def hexagon():
+    rooms = hexagon_rooms()
+    return (rooms,) + _complex(rooms)
+
+
+@pytest.fixture(scope="module")
+def skew():
+    rooms = skew_rooms()
+    return (rooms,) + _complex(rooms)
+
+
+def _truth_spaces(cells, rooms):
+    lab = []
+    for p in cells.polygons:
+        rp = p.representative_point()
+        hit = [k for k, r in enumerate(rooms) if r.contains(rp)]
+        lab.append(hit[0] if hit else -1)
+    lab = np.array(lab)
+    return [np.flatnonzero(lab == k).tolist() for k in range(len(rooms))]
+
+
+def _footprints(cells, spaces):
+    return [shapely.union_all([cells.polygons[c] for c in sp]) for sp in spaces]
+
+
+def test_alpha_area_square_and_blockers():
+    g = np.stack(np.meshgrid(np.arange(0, 1.0001, 0.05), np.arange(0, 1.0001, 0.05)), -1).reshape(-1, 2)
+    assert alpha_area(g, 0.1) == pytest.approx(1.0, abs=1e-9)
+    assert alpha_area(g, 0.01) == 0.0
+    assert alpha_area(g[:2], 0.1) == 0.0
+    # two squares 0.15 m apart: a 0.2 m alpha bridges them unless the wall faces block it
+    two = np.vstack([g, g + [1.15, 0.0]])
+    assert alpha_geometry(two, 0.2).area > 2.1
+    walls = [np.array([[1.0, 0.0], [1.0, 1.0]]), np.array([[1.15, 0.0], [1.15, 1.0]])]
+    assert alpha_geometry(two, 0.2, blockers=walls, snap=0.05).area == pytest.approx(2.0, abs=1e-6)
+    assert len(thin_points(g, 0.1)) == 121
+
+
+def test_cellset_faces_cover_every_edge(hexagon):
+    rooms, cells, cov, _, _ = hexagon
+    for i, p in enumerate(cells.polygons):
+        total = sum(f.length for f in cells.faces if i in (f.a, f.b))
+        assert total == pytest.approx(p.length, rel=1e-3)
+    assert np.all((cov.top >= 0) & (cov.top <= cov.area + 1e-9))
+
+
+@pytest.mark.parametrize("name", ["hexagon", "skew"])
+def test_search_finds_the_rooms(name, request):
+    rooms, cells, cov, _, _ = request.getfixturevalue(name)
+    res = search_spaces(cells, cov, rng=1)
+    assert len(res.spaces) == len(rooms)
+    iou = match_rooms(_footprints(cells, res.spaces), rooms)
+    assert min(iou) > 0.99
+    st = SpaceSearch(cells, cov)
+    st.set_model(_truth_spaces(cells, rooms))
+    assert res.log_posterior >= st.score - 1e-9
+    tr = res.trace
+    assert tr["iteration"] and len(tr["iteration"]) == len(tr["score"])
+    assert 0.0 < res.acceptance_rate < 1.0
+    assert sum(tr["proposed"].values()) > 0
+
+
+def test_same_seed_same_model_and_seeds_agree(skew):
+    rooms, cells, cov, _, _ = skew
+    p = RjmcmcParams(iterations=1500)
+    a = search_spaces(cells, cov, p, rng=7)
+    b = search_spaces(cells, cov, p, rng=7)
+    assert a.spaces == b.spaces and a.trace["score"] == b.trace["score"]
+    counts = {len(search_spaces(cells, cov, p, rng=s).spaces) for s in (1, 2, 3)}
+    assert counts == {len(rooms)}
+
+
+def test_chain_then_polish_without_greedy_start(hexagon):
+    rooms, cells, cov, _, _ = hexagon
+    res = search_spaces(cells, cov, RjmcmcParams(greedy_start=False), rng=3)
+    assert len(res.spaces) == len(rooms)
+    assert min(match_rooms(_footprints(cells, res.spaces), rooms)) > 0.99
+
+
+def test_incremental_score_matches_full_rescore(skew):
+    rooms, cells, cov, wall, hor = skew
+    truth = _truth_spaces(cells, rooms)
+    st = SpaceSearch(cells, cov)
+    models = [truth, truth[:2], [truth[0] + truth[1] + [c for c in range(len(cells)) if not any(c in t for t in truth)][:0]]]
+    for m in models[:2]:
+        st.set_model(m)
+        full = naive_log_posterior(m, cells, wall, hor, **COV)
+        assert st.score == pytest.approx(full, abs=0.02)
+    # the truth beats a model missing two rooms by a clear margin under both scores
+    st.set_model(truth)
+    s_truth = st.score
+    st.set_model(truth[:2])
+    assert s_truth > st.score + 0.1
+
+
+def test_moves_are_reversible(skew):
+    rooms, cells, cov, _, _ = skew
+    st = SpaceSearch(cells, cov)
+    st.set_model(_truth_spaces(cells, rooms))
+    s0, m0 = st.score, st.model()
+    sid = max(st.spaces, key=lambda k: len(st.spaces[k]))
+    c = sorted(st.spaces[sid])[0]
+    rem, add = st.move_split_remove(sid, c)
+    st.apply(rem, add)
+    back = st.move_add_merge(c)
+    assert back is not None
+    st.apply(*back)
+    assert st.model() == m0 and st.score == pytest.approx(s0, abs=1e-9)
+
+
+def test_prior_and_kernel():
+    assert mdl_cost(0) == mdl_cost(1) == 1.0 and mdl_cost(4) == 2.0
+    with pytest.raises(ValueError):
+        RjmcmcParams(beta=1.5)
+    with pytest.raises(ValueError):
+        RjmcmcParams(k1=0.5, k2=0.5, k3=0.5)
+    # a thin cell alone (width 0.2 m <= 0.3 m) has prior 0
+    cells = cellset_from_polygons([shapely.box(0, 0, 0.2, 3), shapely.box(0.2, 0, 4, 3)], (0.0, 2.5))
+    from engine.grammar.coverage import CellCoverage
+
+    cov = CellCoverage(area=cells.areas, top=cells.areas.copy(), inside=np.zeros(2), face=np.ones(len(cells.faces)),
+                       total_horizontal=float(cells.areas.sum()), total_vertical=float(len(cells.faces)),
+                       ceiling_z=np.full(2, 2.5), floor_z=np.zeros(2))
+    st = SpaceSearch(cells, cov)
+    assert math.isinf(st.evaluate([], [frozenset({0})])[0])
+    assert math.isfinite(st.evaluate([], [frozenset({1})])[0])
+    k = st.kernel_log_ratio(1, 2)
+    assert k == pytest.approx(math.log(0.83 / 0.9))
