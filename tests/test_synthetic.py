@@ -207,6 +207,8 @@ def test_points_lie_on_true_surfaces(office):
     d = scene.compute_distance(q).numpy()
     assert 0.3 * sigma < float(np.median(d)) <= 0.6745 * sigma * 1.05
     assert float(np.quantile(d, 0.999)) < 5 * sigma
+    # intensity: reflectance x cos(incidence), so floor points right below the scanner are bright
+    assert c.intensity is not None and 0 <= c.intensity.min() and c.intensity.max() <= 1
     # labels agree with the orientation of the true surface the point is on
     tri = scene.compute_closest_points(q)["primitive_normals"].numpy()
     vertical = np.abs(tri[:, 2]) < 0.2

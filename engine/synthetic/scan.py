@@ -105,6 +105,9 @@ class ScanParams:
     dropped, metres."""
     path_clutter_clearance: float = 0.1
     """Mobile mode: walk positions closer than this to furniture are dropped, metres."""
+    reflectance: tuple = (0.6, 0.35, 0.8, 0.45)
+    """Simulated reflectance of walls, floors, ceilings and clutter (0–1): a point's
+    ``intensity`` is its surface's reflectance times the cosine of the incidence angle."""
     pilot_rays: int = 60_000
     """Rays of the pilot scan that measures the hit rate for ``target_points``."""
     batch_rays: int = 1_000_000
@@ -137,7 +140,8 @@ class SceneMesh:
 class ScanResult:
     """A simulated scan with per-point provenance.
 
-    ``cloud`` : the points, ``fields["label"]`` int32 per point.
+    ``cloud`` : the points, ``fields["label"]`` int32 per point, ``intensity`` float32
+    (reflectance × cos incidence, 0–1).
     ``wall_index`` : (n,) int32 — wall piece hit (-1 when not a wall).
     ``room_index`` : (n,) int32 — room whose face was hit (-1: reveal or clutter).
     ``angular_step`` : radians actually used.
@@ -444,14 +448,23 @@ def _grid_size(step: float, params: ScanParams) -> tuple[int, int]:
 
 
 def _directions(step: float, params: ScanParams, offset: float) -> np.ndarray:
+    """(n_el * n_az, 3) float64 unit ray directions of one scan, azimuth rotated by ``offset``.
+
+    Sines and cosines come from :mod:`math` on the few grid angles (numpy's vectorised
+    ones may differ in the last bit with memory alignment), so the rays, and the scan,
+    are bit-for-bit the same for the same seed.
+    """
     n_az, n_el = _grid_size(step, params)
     span = params.max_elevation - params.min_elevation
-    el = params.min_elevation + (np.arange(n_el) + 0.5) * span / n_el
-    az = offset + np.arange(n_az) * 2 * math.pi / n_az
-    ce, se = np.cos(el), np.sin(el)
+    el = [params.min_elevation + (k + 0.5) * span / n_el for k in range(n_el)]
+    az = [offset + j * 2 * math.pi / n_az for j in range(n_az)]
+    ce = np.array([math.cos(a) for a in el])
+    se = np.array([math.sin(a) for a in el])
+    ca = np.array([math.cos(a) for a in az])
+    sa = np.array([math.sin(a) for a in az])
     d = np.empty((n_el, n_az, 3))
-    d[..., 0] = ce[:, None] * np.cos(az)[None]
-    d[..., 1] = ce[:, None] * np.sin(az)[None]
+    d[..., 0] = ce[:, None] * ca[None]
+    d[..., 1] = ce[:, None] * sa[None]
     d[..., 2] = se[:, None]
     return d.reshape(-1, 3)
 
@@ -530,13 +543,13 @@ def simulate_scan(plan: FloorPlan, params: ScanParams = ScanParams(), *,
             rays += len(dirs)
         frac = max(hits / max(rays, 1), 1e-3)
         step = math.sqrt(len(pos) * 2 * math.pi * span * frac / params.target_points)
-    dirs = _directions(step, params, 0.0)
-    base_az = np.arctan2(dirs[:, 1], dirs[:, 0])
-    horiz = np.hypot(dirs[:, 0], dirs[:, 1])
-    xyz, lab, wall, room, sidx = [], [], [], [], []
+    tri = mesh.vertices[mesh.triangles]
+    tri_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    tri_n /= np.maximum(np.linalg.norm(tri_n, axis=1, keepdims=True), 1e-12)
+    refl = np.asarray(params.reflectance, dtype=np.float64)
+    xyz, lab, wall, room, sidx, inten = [], [], [], [], [], []
     for k, o in enumerate(pos):
-        az = base_az + offsets[k]
-        dk = np.column_stack([horiz * np.cos(az), horiz * np.sin(az), dirs[:, 2]])
+        dk = _directions(step, params, float(offsets[k]))
         for s0 in range(0, len(dk), params.batch_rays):
             dd = dk[s0:s0 + params.batch_rays]
             t, prim = _cast(scene, o3d, o, dd)
@@ -545,12 +558,15 @@ def simulate_scan(plan: FloorPlan, params: ScanParams = ScanParams(), *,
             r = t + rng.normal(0.0, params.sigma, len(t))
             xyz.append(o + dd * r[:, None])
             lab.append(mesh.labels[prim])
+            nt = tri_n[prim]
+            inten.append(refl[mesh.labels[prim]] * np.abs(dd[:, 0] * nt[:, 0] + dd[:, 1] * nt[:, 1] + dd[:, 2] * nt[:, 2]))
             wall.append(mesh.wall_index[prim])
             room.append(mesh.room_index[prim])
             sidx.append(np.full(len(t), k, np.int32))
         prog(0.02 + 0.98 * (k + 1) / len(pos), f"scan {k + 1}/{len(pos)}")
     cloud = PointCloud(
         xyz=np.vstack(xyz),
+        intensity=np.concatenate(inten).astype(np.float32),
         scan_index=np.concatenate(sidx),
         scanner_positions=pos,
         fields={"label": np.concatenate(lab).astype(np.int32)},
