@@ -49,3 +49,14 @@ def test_change_demo_misregistered_model(demo):
     got = pts @ res.registration.transform[:3, :3].T + res.registration.transform[:3, 3]
     assert np.linalg.norm(got - want, axis=1).max() < 0.01
     _check(res, demo.cloud, moved)
+
+
+def test_change_demo_mobile_noise_automatic_threshold():
+    # σ = 2 cm: r is raised from the registration residual (thesis: 0.10 m for mobile scans)
+    scene = synthetic.preset("change_demo", seed=1, noise="mobile", target_points=150_000)
+    res = detect_changes(scene.truth, scene.cloud)
+    assert 0.07 <= res.distance_threshold <= 0.15
+    truth = scene.cloud.fields["new"] == 1
+    prec, rec = _precision_recall(res.new_structure(), truth)
+    assert prec >= 0.95 and rec >= 0.95, (prec, rec)
+    assert set(res.redundant) == _removed_faces(scene.truth)

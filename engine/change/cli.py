@@ -50,7 +50,8 @@ def add_changes(sub) -> None:
     p.add_argument("scan", metavar="SCAN", help="the (new) scan")
     p.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--distance", type=float, default=None,
-                   help="r in metres: points this close to a model surface exist (default 0.05)")
+                   help="r in metres: points this close to a model surface exist "
+                        "(default: automatic from the registration residual, at least 0.05)")
     p.add_argument("--alpha", type=float, default=None, help="alpha-shape radius in metres (default 0.2)")
     p.add_argument("--redundant-threshold", type=float, default=None,
                    help="faces with coverage at most this are redundant (default 0.25)")

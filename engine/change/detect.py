@@ -32,10 +32,13 @@ from ..evaluation.patches import patches_from_model
 from ..evaluation.loading import frame_transform
 from .registration import RegistrationParams, RegistrationResult, register
 
-__all__ = ["ChangeParams", "ChangeResult", "detect_changes", "cluster_points", "EXISTING", "NEW"]
+__all__ = ["ChangeParams", "ChangeResult", "detect_changes", "cluster_points", "distance_threshold", "EXISTING",
+           "NEW"]
 
 log = logging.getLogger(__name__)
 
+MAD_TO_SIGMA = 1.4826
+"""σ of a Gaussian from the median of absolute deviations."""
 EXISTING = 0
 """Point type: lies on a model surface."""
 NEW = 1
@@ -46,10 +49,16 @@ NEW = 1
 class ChangeParams:
     """Parameters of :func:`detect_changes` (SI units)."""
 
-    distance_threshold: float = 0.05
+    distance_threshold: Optional[float] = None
     """r: a point within this distance of a model surface (inside its outline) exists,
-    metres. Follow the scan noise plus the registration error (thesis: 0.10 m for a mobile
-    scan with 3 cm noise)."""
+    metres. It should follow the scan noise plus the registration error (thesis: 0.10 m for
+    a mobile scan with 3 cm noise). None: automatic, ``max(min_distance_threshold,
+    noise_factor · σ̂)`` with σ̂ = 1.4826 × the registration residual (a robust noise
+    estimate from the median point-to-plane distance)."""
+    min_distance_threshold: float = 0.05
+    """Smallest automatic r, metres."""
+    noise_factor: float = 6.0
+    """Automatic r in units of the estimated noise σ̂."""
     use_normals: bool = True
     """Also require the point normal to agree with the surface (normals are estimated
     when the scan has none)."""
@@ -91,6 +100,8 @@ class ChangeResult:
 
     Attributes
     ----------
+    distance_threshold : float
+        The r used, metres.
     registration : RegistrationResult
         ``registration.transform`` maps scan coordinates into the model frame.
     point_type : (n,) uint8
@@ -117,6 +128,7 @@ class ChangeResult:
     """
 
     registration: RegistrationResult
+    distance_threshold: float
     point_type: np.ndarray
     distance: np.ndarray
     surface: np.ndarray
@@ -144,6 +156,7 @@ class ChangeResult:
             "new": new,
             "new_share": new / n if n else 0.0,
             "registration": self.registration.to_dict(),
+            "distance_threshold_m": float(self.distance_threshold),
             "surfaces": len(self.coverage_keys),
             "redundant": list(self.redundant),
             "new_elements": len(self.elements),
@@ -226,11 +239,20 @@ def _near_voxels(points: np.ndarray, seeds: np.ndarray, size: float) -> np.ndarr
     return np.isin(code(np.floor((points - lo) / size).astype(np.int64)), keys)
 
 
-def _classify(patches, xyz, cloud, t, params: ChangeParams, should_stop) -> PatchSupport:
+def distance_threshold(params: ChangeParams, registration: RegistrationResult) -> float:
+    """The r used: ``params.distance_threshold`` or the automatic one (metres)."""
+    if params.distance_threshold is not None:
+        return float(params.distance_threshold)
+    sigma = MAD_TO_SIGMA * registration.residual
+    if not np.isfinite(sigma):
+        return float(params.min_distance_threshold)
+    return float(max(params.min_distance_threshold, params.noise_factor * sigma))
+
+
+def _classify(patches, xyz, cloud, t, params: ChangeParams, r: float, should_stop) -> PatchSupport:
     """Points on model surfaces: by distance and boundary; where the distance test leaves new
     points nearby (a new element touching old surfaces), also by normal."""
-    search = params.search_distance
-    r = params.distance_threshold
+    search = max(params.search_distance, r)
     if not params.use_normals:
         return patch_support(patches, xyz, r, search_distance=search, should_stop=should_stop)
     if cloud.normals is not None:
@@ -321,7 +343,8 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
     xyz = cloud.xyz @ t[:3, :3].T + t[:3, 3]
     p(0.4, "classifying points")
     patches = patches_from_model(model, params.classify_types)
-    sup = _classify(patches, xyz, cloud, t, params, should_stop)
+    r = distance_threshold(params, reg)
+    sup = _classify(patches, xyz, cloud, t, params, r, should_stop)
     point_type = np.where(sup.on_model, EXISTING, NEW).astype(np.uint8)
 
     p(0.7, "surface coverage")
@@ -352,5 +375,5 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
     p(1.0, "done")
     log.info("change detection: %d of %d points new, %d redundant faces, %d candidate elements, residual %.4f m",
              len(new_idx), len(xyz), len(redundant), len(elements), reg.residual)
-    return ChangeResult(reg, point_type, sup.distance, sup.patch, cluster, patches,
+    return ChangeResult(reg, r, point_type, sup.distance, sup.patch, cluster, patches,
                         [pt.key for pt in cov_patches], coverage, cov_patches, redundant, elements, params)
