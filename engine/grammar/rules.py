@@ -281,8 +281,8 @@ def space_relations(parts: list[Shape], top: dict, doors: list[Shape],
                     touching=None) -> list[Relation]:
     """Rules 3 and 4 after merging.
 
-    Adjacency: two interior spaces with a wall between them (``via`` = the wall), or
-    sharing a face directly. Connectivity: spaces whose common wall holds a door
+    Adjacency: an interior space and another space (interior or exterior) with a wall
+    between them (``via`` = the wall), or sharing a face directly. Connectivity: spaces whose common wall holds a door
     (``via`` = the door), recorded between the spaces and between the parts on either
     side of the door (so the sub-space graph passes through the door too).
     ``top`` maps a part id to its merged shape id.
@@ -299,7 +299,8 @@ def space_relations(parts: list[Shape], top: dict, doors: list[Shape],
         for w, fw, s in ((a, t.fa, b), (b, t.fb, a)):
             if w.type == ShapeType.WALL and s.type in _SPACE_TYPES:
                 sides[w.id][fw].append(s)
-        if a.type == b.type == ShapeType.INTERIOR and top[a.id] != top[b.id]:
+        if (a.type in _SPACE_TYPES and b.type in _SPACE_TYPES and ShapeType.INTERIOR in (a.type, b.type)
+                and top[a.id] != top[b.id]):
             rel.append(Relation("adjacency", top[a.id], top[b.id]))
     for wid, faces in sides.items():
         w = by_id[wid]
@@ -311,7 +312,7 @@ def space_relations(parts: list[Shape], top: dict, doors: list[Shape],
                     continue
                 for L in faces[fl[i]]:
                     for R in faces[fl[j]]:
-                        if L.type == R.type == ShapeType.INTERIOR and top[L.id] != top[R.id]:
+                        if ShapeType.INTERIOR in (L.type, R.type) and top[L.id] != top[R.id]:
                             rel.append(Relation("adjacency", top[L.id], top[R.id], top[wid]))
     if doors:
         door_touch = shared_faces(list(doors) + [s for s in parts if s.type in _SPACE_TYPES])
