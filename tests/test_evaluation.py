@@ -223,3 +223,13 @@ def test_eval_demo_self(eval_demo):
     np.testing.assert_allclose(res.curve("completeness"), 1.0, atol=1e-9)
     np.testing.assert_allclose(res.curve("correctness"), 1.0, atol=1e-9)
     np.testing.assert_allclose(res.curve("accuracy"), 0.0, atol=1e-9)
+
+
+def test_progress_and_cancel():
+    from engine.errors import Cancelled
+
+    seen = []
+    evaluate(REF, REF, progress=lambda f, m: seen.append(f))
+    assert seen[0] == 0.0 and seen[-1] == 1.0 and seen == sorted(seen)
+    with pytest.raises(Cancelled):
+        evaluate(REF, REF, should_stop=lambda: True)
