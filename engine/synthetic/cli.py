@@ -98,7 +98,9 @@ def cmd_synth(args) -> int:
                   progress=bar)
         if args.preset.lower().endswith(".json"):
             plan = FloorPlan.from_json(args.preset)
-            name = plan.name or os.path.splitext(os.path.basename(args.preset))[0]
+            name = os.path.splitext(os.path.basename(args.preset))[0]  # file names follow the file
+            if name.endswith("_plan"):
+                name = name[: -len("_plan")]
             scene = scene_from_plans({"truth": plan}, name=name, **kw)
         else:
             scene = preset(args.preset, **kw)

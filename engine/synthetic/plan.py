@@ -11,7 +11,22 @@ gap between neighbouring rooms (interior walls, thickness = the gap) and a band 
 ceiling slabs, exterior spaces, doors, adjacency (spaces sharing a wall) and connectivity
 (spaces joined by a door). :func:`rooms_from_partition` makes rooms from a partition of the
 footprint into cells sharing edges, which is the easiest way to write a plan with exact
-wall gaps at any angle.
+wall gaps at any angle. Neighbouring rooms should be ``interior_thickness`` apart (that is
+what :func:`rooms_from_partition` gives); a wider gap is still filled with wall, but the
+piece is not recognised as the wall *between* the two rooms.
+
+A plan round-trips through JSON (:meth:`FloorPlan.to_json` / :meth:`FloorPlan.from_json`),
+which is what ``indoor synth plan.json -o DIR`` reads::
+
+    {"schema": "indoor-floor-plan", "schema_version": 1, "name": "two rooms",
+     "interior_thickness": 0.15, "exterior_thickness": 0.3, "slab_thickness": 0.3,
+     "storeys": [{"floor_z": 0.0, "height": 2.7, "name": "Ground floor"}],
+     "rooms": [{"name": "A", "polygon": [[0, 0], [4, 0], [4, 5], [0, 5]]},
+               {"name": "B", "polygon": [[4.15, 0], [8, 0], [8, 5], [4.15, 5]],
+                "ceiling_height": 2.5}],
+     "doors": [{"rooms": ["A", "B"], "position": 0.5, "width": 0.9, "height": 2.1}]}
+
+Clutter is added by :func:`~engine.synthetic.furnish.furnish` when a plan has none.
 """
 from __future__ import annotations
 

@@ -55,6 +55,8 @@ MOBILE_MAX_RANGE = 20.0
 """Maximum range of the mobile scanner, metres."""
 DEFAULT_POINTS = 1_000_000
 """Default number of points of a preset scan."""
+MAX_POINTS = 100_000_000
+"""Larger point counts are refused (memory: about 100 bytes per point while simulating)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -393,8 +395,8 @@ def scene_from_plans(plans: Mapping[str, FloorPlan], *, name: Optional[str] = No
         raise InputError(f"plans must hold 'truth' and the scanned plan {scanned!r}")
     name = name or plans["truth"].name
     target = int(target_points) if target_points is not None else int(round(DEFAULT_POINTS * scale))
-    if target <= 0:
-        raise InputError(f"target_points must be positive, not {target}")
+    if not 0 < target <= MAX_POINTS:
+        raise InputError(f"target_points must be between 1 and {MAX_POINTS:,}, not {target:,}")
     params = scan_params_for(noise, target)
     ss = np.random.SeedSequence(int(seed))
     rng_furnish, rng_scan = (np.random.default_rng(s) for s in ss.spawn(2))
