@@ -172,10 +172,13 @@ def test_bad_plans_are_rejected():
 
 
 # ----------------------------------------------------------------------------- scans
-def test_points_lie_on_true_surfaces(office):
-    c, m = office.cloud, office.truth
-    sigma = office.noise_sigma
-    assert sigma == 0.005
+@pytest.mark.parametrize("case", ["office_mw/tls", "syn_house/mobile", "hexagon_hall/0.01"])
+def test_points_lie_on_true_surfaces(case, office):
+    name, noise = case.split("/")
+    sc = office if case == "office_mw/tls" else preset(name, seed=2, noise=noise, target_points=100_000)
+    c, m = sc.cloud, sc.truth
+    sigma = sc.noise_sigma
+    assert sigma == {"tls": 0.005, "mobile": 0.02}.get(noise, 0.01)
     lab = c.fields["label"]
     assert c.fields["label"].dtype == np.int32
     assert set(np.unique(lab)) == {LABEL_WALL, LABEL_FLOOR, LABEL_CEILING, LABEL_CLUTTER}
@@ -192,7 +195,7 @@ def test_points_lie_on_true_surfaces(office):
         scan_in = shapely.contains_xy(fp, pos[:, 0], pos[:, 1])
         own |= in_room & scan_in[c.scan_index]
     sel = np.flatnonzero(own & (lab != LABEL_CLUTTER))
-    assert len(sel) > 0.5 * len(c)
+    assert len(sel) > 0.3 * len(c)
     o = pos[c.scan_index[sel]]
     v = c.xyz[sel] - o
     r = np.linalg.norm(v, axis=1)
