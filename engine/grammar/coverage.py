@@ -33,7 +33,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-__all__ = ["alpha_triangles", "alpha_area", "alpha_geometry", "thin_points", "Face", "CellSet",
+__all__ = ["cell_heights", "alpha_triangles", "alpha_area", "alpha_geometry", "thin_points", "Face", "CellSet",
            "CellCoverage", "measure_coverage", "cellset_from_polygons"]
 
 log = logging.getLogger(__name__)
@@ -411,9 +411,58 @@ def _points_in_cells(polys, xy: np.ndarray) -> np.ndarray:
     return out
 
 
+def cell_heights(cells: CellSet, hw: np.ndarray):
+    """Which cell holds each floor/ceiling point, and the cells' floor and ceiling heights.
+
+    Parameters
+    ----------
+    cells : CellSet
+    hw : (m, 3) float64 — floor/ceiling points, metres.
+
+    Returns
+    -------
+    cell : (m,) int64 — cell of each point (-1: none).
+    upper : (m,) bool — the point is in the upper half of its cell (a ceiling point).
+    ceiling_z, floor_z : (n,) float64 — median height of the ceiling / floor points over
+        each cell, metres (NaN where none).
+    """
+    n = len(cells)
+    zmid = cells.z_range.mean(axis=1)
+    hc = _points_in_cells(cells.polygons, hw[:, :2])
+    ok = hc >= 0
+    upper = np.zeros(len(hw), bool)
+    upper[ok] = hw[ok, 2] > zmid[hc[ok]]
+    ceiling_z = np.full(n, np.nan)
+    floor_z = np.full(n, np.nan)
+    lower = ok & ~upper
+    for arr, mask in ((ceiling_z, upper), (floor_z, lower)):
+        idx = hc[mask]
+        z = hw[mask, 2]
+        if len(idx):
+            order = np.argsort(idx, kind="stable")
+            idx, z = idx[order], z[order]
+            cuts = np.flatnonzero(np.diff(idx)) + 1
+            for grp_i, grp_z in zip(np.split(idx, cuts), np.split(z, cuts)):
+                arr[grp_i[0]] = float(np.median(grp_z))
+
+    return hc, upper, ceiling_z, floor_z
+
+
+def _face_band(f: Face, zr: np.ndarray, ceiling_z: np.ndarray, band: float) -> tuple:
+    """(z0, z1) of the part of face ``f`` whose wall coverage is measured, metres."""
+    cells = [f.a] if f.b < 0 else [f.a, f.b]
+    z0 = float(min(zr[c, 0] for c in cells))
+    z1 = float(max(zr[c, 1] for c in cells))
+    if band <= 0:
+        return z0, z1
+    cz = [ceiling_z[c] for c in cells if np.isfinite(ceiling_z[c])]
+    top = min(max(cz), z1) if cz else z1
+    return max(z0, top - band), top
+
+
 def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.ndarray, *,
                      shape_buffer: float, r_alpha: float, thin: float, min_wall_coverage: float = 0.2,
-                     should_check=None) -> CellCoverage:
+                     wall_band: float = 0.6, should_check=None) -> CellCoverage:
     """Measure the per-cell and per-face coverage once (see the module doc).
 
     Parameters
@@ -428,6 +477,10 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
     min_wall_coverage : a face whose wall coverage is at least this share of its area is a
         seen wall: no ceiling alpha triangle may cross it (so the ceiling's alpha shape never
         bridges a wall, whatever r_α and the point spacing).
+    wall_band : the wall coverage of a face is measured in the band of this height under
+        the ceiling over it (metres; the higher of the two cells' ceiling heights, the
+        top of the cells where no ceiling is seen): walls reach the ceiling, furniture
+        rarely does, so cupboard sides do not read as walls. <= 0: the whole face.
     should_check : optional callable polled between faces (cancellation).
 
     Returns
@@ -446,7 +499,10 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
     hw = thin_points(hw, thin)
     vw = thin_points(vw, thin)
 
-    hc = None
+    # --- ceilings and floors: which cell holds each horizontal point
+    hc, upper, ceiling_z, floor_z = cell_heights(cells, hw)
+    ok = hc >= 0
+
     # --- faces: wall points within δ of the face's footprint segment
     face = np.zeros(len(cells.faces))
     tree = cKDTree(vw[:, :2]) if len(vw) else None
@@ -455,8 +511,7 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
             should_check()
         if tree is None:
             break
-        z0 = zr[f.a, 0] if f.b < 0 else min(zr[f.a, 0], zr[f.b, 0])
-        z1 = zr[f.a, 1] if f.b < 0 else max(zr[f.a, 1], zr[f.b, 1])
+        z0, z1 = _face_band(f, zr, ceiling_z, wall_band)
         tot = 0.0
         for p, q in f.segments:
             d = q - p
@@ -479,37 +534,17 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
         face[fi] = tot
     total_v = float(face.sum())
 
-    # --- ceilings and floors: which cell holds each horizontal point
-    hc = _points_in_cells(cells.polygons, hw[:, :2])
-    ok = hc >= 0
-    upper = np.zeros(len(hw), bool)
-    upper[ok] = hw[ok, 2] > zmid[hc[ok]]
-    ceil_pts = hw[upper]
     # faces seen as walls block the ceiling's alpha shape: no triangle may bridge a wall
-    h = np.maximum(zr[:, 1] - zr[:, 0], 1e-9)
     seen = [fi for fi, f in enumerate(cells.faces)
-            if face[fi] >= min_wall_coverage * f.length * h[f.a]]
+            if face[fi] >= min_wall_coverage * f.length * np.diff(_face_band(f, zr, ceiling_z, wall_band))[0]]
     blockers = [s for fi in seen for s in cells.faces[fi].segments]
-    geom = alpha_geometry(thin_points(ceil_pts[:, :2], thin), r_alpha, blockers=blockers, snap=shape_buffer)
+    geom = alpha_geometry(thin_points(hw[upper][:, :2], thin), r_alpha, blockers=blockers, snap=shape_buffer)
     total_h = float(geom.area)
     if geom.is_empty:
         top = np.zeros(n)
     else:
         shapely.prepare(geom)
         top = shapely.area(shapely.intersection(geom, np.array(cells.polygons, dtype=object)))
-    ceiling_z = np.full(n, np.nan)
-    floor_z = np.full(n, np.nan)
-    lower = ok & ~upper
-    for arr, mask in ((ceiling_z, upper), (floor_z, lower)):
-        idx = hc[mask]
-        z = hw[mask, 2]
-        if len(idx):
-            order = np.argsort(idx, kind="stable")
-            idx, z = idx[order], z[order]
-            cuts = np.flatnonzero(np.diff(idx)) + 1
-            for grp_i, grp_z in zip(np.split(idx, cuts), np.split(z, cuts)):
-                arr[grp_i[0]] = float(np.median(grp_z))
-
     # --- points strictly inside cells: voxel-occupancy area
     inside = np.zeros(n)
     allp = np.vstack([vw, hw]) if len(vw) + len(hw) else np.zeros((0, 3))

@@ -74,8 +74,17 @@ class GenericParams:
     """Circumradius bound of the alpha shapes, metres (SPEC.md §5: 0.2 m; above about twice
     the point spacing). The ceiling's alpha shape is kept from bridging walls by the seen
     wall faces (see :func:`~.coverage.measure_coverage`), not by a small r_α."""
+    coverage_angle: float = math.radians(45.0)
+    """Points enter the coverage measures as floor/ceiling points when their normal is
+    within this angle of vertical, as wall points when within it of horizontal, radians.
+    Wider than the clustering θ on purpose: far from the scanner, sparse ceilings get noisy
+    normals, and losing those points opens holes in the ceiling's alpha shape (the
+    coverage is measured near known faces, so the looser test admits little clutter)."""
     min_wall_coverage: float = 0.2
     """A cell face whose wall coverage reaches this share of its area is a seen wall."""
+    wall_band: float = 0.6
+    """Wall coverage is measured in this band under the ceiling (walls reach the ceiling,
+    furniture rarely does), metres; 0: the whole face."""
     coverage_grid: float = 0.04
     """Points are thinned to one per cell of this grid before coverage is measured, metres;
     also the voxel of the inside-area estimate."""
@@ -343,9 +352,9 @@ def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) 
         wall_no += 1
         shapes.append(Shape(
             id=wid, type=ShapeType.WALL,
-            geometry=Polyhedron.prism(_polygon_coords(cells.polygons[c]), st.floor_z, st.ceiling_z),
+            geometry=Polyhedron.prism(_polygon_coords(cells.polygons[c]), *cells.z_range[c]),
             storey=index, terminal=True, children=(f"s{index}_cell{c}",),
-            attributes={"thickness": thick, "height": st.ceiling_z - st.floor_z},
+            attributes={"thickness": thick, "height": float(cells.z_range[c, 1] - cells.z_range[c, 0])},
             log=(f"walls (SPEC 3.4): untyped cell next to a space, vertices within {thick:.3f} m "
                  f"<= {max_wall_thickness:g} m of the shared face -> wall",)))
         kind[c], owner[c] = "wall", wid
@@ -482,7 +491,7 @@ def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = Non
     """
     import shapely
 
-    from ..segmentation import CLASS_HORIZONTAL, CLASS_WALL, classify_points, estimate_normals, voxel_downsample
+    from ..segmentation import classify_points, estimate_normals, voxel_downsample
     from ..segmentation.planes import extract_planes
 
     params = params or GenericParams()
@@ -514,21 +523,27 @@ def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = Non
         p.check()
         a, b = 0.5 + 0.45 * si / len(storeys), 0.5 + 0.45 * (si + 1) / len(storeys)
         t1 = time.perf_counter()
-        inz = (work.xyz[:, 2] >= st.floor_z - params.shape_buffer) & (work.xyz[:, 2] <= st.ceiling_z + params.shape_buffer)
+        # the storey reaches up to the next storey's floor (rooms of several ceiling heights)
+        top_z = storeys[si + 1].floor_z - params.shape_buffer if si + 1 < len(storeys) else np.inf
+        inz = (work.xyz[:, 2] >= st.floor_z - params.shape_buffer) & (work.xyz[:, 2] <= top_z)
         xyz = work.xyz[inz]
-        lab = labels[inz]
+        nz = np.abs(work.normals[inz, 2].astype(np.float64))
         if len(xyz) < 10:
             continue
+        z_hi = max(st.ceiling_z, float(np.percentile(xyz[:, 2], 99.9)))
         lo, hi = xyz[:, :2].min(axis=0) - params.extent_margin, xyz[:, :2].max(axis=0) + params.extent_margin
         extent = shapely.box(lo[0], lo[1], hi[0], hi[1])
         lines = wall_lines(planes, si, params)
         polys = arrange_cells(lines, extent, params.min_cell_area)
-        cells = cellset_from_polygons(polys, (st.floor_z, st.ceiling_z), params.min_face_length)
+        cells = cellset_from_polygons(polys, (st.floor_z, z_hi), params.min_face_length)
         t_cells += time.perf_counter() - t1
         t1 = time.perf_counter()
-        cov = measure_coverage(cells, xyz[lab == CLASS_WALL], xyz[lab == CLASS_HORIZONTAL],
+        hmask = nz >= math.cos(params.coverage_angle)
+        wmask = nz <= math.sin(params.coverage_angle)
+        cov = measure_coverage(cells, xyz[wmask], xyz[hmask],
                                shape_buffer=params.shape_buffer, r_alpha=params.r_alpha,
                                thin=params.coverage_grid, min_wall_coverage=params.min_wall_coverage,
+                               wall_band=params.wall_band,
                                should_check=p.check)
         t_cov += time.perf_counter() - t1
         t1 = time.perf_counter()

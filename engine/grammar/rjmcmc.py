@@ -59,7 +59,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import Scope
 from ..progress import Progress
-from .coverage import CellCoverage, CellSet, alpha_area, alpha_geometry, thin_points
+from .coverage import CellCoverage, CellSet, _face_band, alpha_area, alpha_geometry, cell_heights, thin_points
 
 __all__ = ["RjmcmcParams", "SearchResult", "SpaceSearch", "search_spaces", "naive_log_posterior",
            "MOVES", "mdl_cost"]
@@ -495,7 +495,7 @@ def search_spaces(cells: CellSet, coverage: CellCoverage, params: RjmcmcParams =
 def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wall: np.ndarray,
                         xyz_horizontal: np.ndarray, params: RjmcmcParams = RjmcmcParams(), *,
                         shape_buffer: float, r_alpha: float, thin: float,
-                        min_wall_coverage: float = 0.2) -> float:
+                        min_wall_coverage: float = 0.2, wall_band: float = 0.6) -> float:
     """The thesis's full re-score of a model from the points (reference for tests/benchmark).
 
     Every call thins the points, builds the alpha shapes of all ceiling points and of every
@@ -508,7 +508,7 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
     cells : CellSet
     xyz_wall, xyz_horizontal : (n, 3) / (m, 3) float64 — wall and floor/ceiling points, metres.
     params : RjmcmcParams
-    shape_buffer, r_alpha, thin, min_wall_coverage : as for
+    shape_buffer, r_alpha, thin, min_wall_coverage, wall_band : as for
         :func:`~.coverage.measure_coverage`.
 
     Returns
@@ -520,18 +520,16 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
     hw = thin_points(np.asarray(xyz_horizontal, float).reshape(-1, 3), thin)
     vw = thin_points(np.asarray(xyz_wall, float).reshape(-1, 3), thin)
     zr = cells.z_range
-    allpoly = shapely.union_all(list(cells.polygons))
-    inb = shapely.contains_xy(allpoly.buffer(1e-6), hw[:, 0], hw[:, 1])
-    zmid = zr.mean()  # storey-wide: cells of one storey share their z range
-    ceil = hw[inb & (hw[:, 2] > zmid)]
+    _, upper, ceiling_z, _ = cell_heights(cells, hw)
+    ceil = hw[upper]
     # all faces' wall coverage, one by one from the points
-    fcov = []
+    fcov, bands = [], []
     for f in cells.faces:
-        z0, z1 = zr[f.a]
+        z0, z1 = _face_band(f, zr, ceiling_z, wall_band)
+        bands.append(z1 - z0)
         fcov.append(sum(_face_cov(vw, a, b, z0, z1, shape_buffer, r_alpha) for a, b in f.segments))
     V = float(sum(fcov))
-    h = zr[:, 1] - zr[:, 0]
-    blockers = [s for fi, f in enumerate(cells.faces) if fcov[fi] >= min_wall_coverage * f.length * h[f.a]
+    blockers = [s for fi, f in enumerate(cells.faces) if fcov[fi] >= min_wall_coverage * f.length * bands[fi]
                 for s in f.segments]
     geom_h = alpha_geometry(ceil[:, :2], r_alpha, blockers=blockers, snap=shape_buffer)
     H = geom_h.area
@@ -547,11 +545,11 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
         top = float(shapely.intersection(geom_h, poly).area) if not geom_h.is_empty else 0.0
         s_top += top
         s_log += math.log(max(top / poly.area, params.min_ratio))
-        bnd = shapely.boundary(shapely.simplify(poly, 1e-9))
-        for parts in getattr(bnd, "geoms", [bnd]):
-            c = np.asarray(parts.coords)
-            for i in range(len(c) - 1):
-                s_vert += _face_cov(vw, c[i], c[i + 1], z0, z1, shape_buffer, r_alpha)
+        spc = set(sp)
+        for fi, f in enumerate(cells.faces):  # the space's boundary faces, from the points
+            if (f.a in spc) != (f.b in spc):
+                bz0, bz1 = _face_band(f, zr, ceiling_z, wall_band)
+                s_vert += sum(_face_cov(vw, a, b, bz0, bz1, shape_buffer, r_alpha) for a, b in f.segments)
         inner = poly.buffer(-shape_buffer, join_style="mitre")
         allp = np.vstack([vw, hw])
         mm = shapely.contains_xy(inner, allp[:, 0], allp[:, 1]) & (allp[:, 2] > z0 + shape_buffer) \
