@@ -138,12 +138,26 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             j = np.clip(np.searchsorted(other, p[:, o]), 1, max(len(other) - 1, 1))
             dist = np.minimum(np.abs(p[:, o] - other[j - 1]), np.abs(p[:, o] - other[np.minimum(j, len(other) - 1)]))
             off = dist > d
-        peaks = [pk for pk in raw[a]
+        peaks = [pk.position for pk in raw[a]
                  if _reaches_ceiling(p[off & ~along[o]], a, pk.position, frame, params, spacing, ceiling_cells)]
+        # where no wall surface bounds the seen ceiling (a space seen through an opening,
+        # a wall too far to get normals), the ceiling's seen extent bounds the grid
+        # (first the top ceiling's extent, then that of every horizontal surface in the
+        # upper half of the storey: lower ceilings, soffits seen beyond an opening)
+        mid = (frame.floor + frame.ceiling) / 2
+        for sel in (hor & (np.abs(p[:, 2] - frame.ceiling) <= d), hor & (p[:, 2] > mid)):
+            ext = p[sel, a]
+            if len(ext) < 10:
+                continue
+            lo_e, hi_e = np.percentile(ext, [params.extent_percentile, 100 - params.extent_percentile])
+            if not peaks or lo_e < peaks[0] - params.max_wall_thickness:
+                peaks.insert(0, float(lo_e))
+            if hi_e > peaks[-1] + params.max_wall_thickness:
+                peaks.append(float(hi_e))
         if len(peaks) < 2:
             raise ReconstructionError(f"storey {storey}: fewer than two wall surfaces facing "
                                       f"{'xy'[a]} (found {len(peaks)}); is the cloud aligned?")
-        cuts.append(np.array([pk.position for pk in peaks]))
+        cuts.append(np.array(peaks))
     X, Y, Z = cuts[0], cuts[1], zc
     nx, ny, nz = len(X) - 1, len(Y) - 1, len(Z) - 1
     log.info("storey %d: %d x %d x %d cuboids (x cuts %d, y cuts %d, z cuts %s)",
@@ -294,14 +308,8 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
 
 
 def _complete_params(xyz, params):
-    if params is None:
-        return params_from_data(xyz)
-    if params.spacing is None:
-        params = params.with_(spacing=estimate_spacing(xyz))
-    if params.noise is None:
-        from .params import estimate_noise
-
-        params = params.with_(noise=estimate_noise(xyz))
+    if params is None or not params.complete:
+        return params_from_data(xyz, params)
     return params
 
 
@@ -389,7 +397,7 @@ def reconstruct_manhattan(cloud: PointCloud, params: Optional[ManhattanParams] =
     except _RE as e:  # fall back to the grammar's own slab/level analysis
         log.warning("segmentation found no storey (%s); using the grammar's level analysis", e)
         storeys = None
-    if params is None or params.spacing is None or params.noise is None:
+    if params is None or not params.complete:
         params = params_from_data(aligned.xyz, base, rng=seed)
     t_pre = time.perf_counter() - t0
     model = reconstruct_grammar(aligned, params, storeys, progress=p.sub(0.2, 1.0), transform=T)

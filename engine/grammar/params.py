@@ -32,10 +32,12 @@ class ManhattanParams:
 
     tau: float = 0.3
     """τ: a face is "seen" when its point-on-face index reaches τ (0–1)."""
-    bin_size: float = 0.03
-    """Histogram bin of the place rule, metres (thesis: 0.03–0.05; ≤ max wall thickness / 2)."""
-    shape_buffer: float = 0.05
-    """δ: points within this distance of a face count for its point-on-face index, metres."""
+    bin_size: Optional[float] = None
+    """Histogram bin of the place rule, metres (thesis: 0.03–0.05; ≤ max wall thickness / 2);
+    None = choose from the data."""
+    shape_buffer: Optional[float] = None
+    """δ: points within this distance of a face count for its point-on-face index, metres;
+    None = choose from the data."""
     max_wall_thickness: float = 0.5
     """A cuboid whose smaller horizontal size is at most this may be a wall, metres."""
     min_interval: float = 0.05
@@ -52,6 +54,9 @@ class ManhattanParams:
     ceiling level (furniture stops short of it), metres."""
     min_wall_top_length: float = 0.5
     """...over at least this length along the wall, metres."""
+    extent_percentile: float = 0.5
+    """Where no wall bounds the seen ceiling, the grid ends at this percentile (and 100 −
+    it) of the ceiling points' coordinates (robust to a few stray points), percent."""
     min_level_area: float = 2.0
     """A floor or ceiling level must hold at least this much surface, m²."""
     min_storey_height: float = 1.8
@@ -76,6 +81,22 @@ class ManhattanParams:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+    @classmethod
+    def real_tls(cls, **changes) -> "ManhattanParams":
+        """Settings for real terrestrial scans of furnished rooms: the looser wall tests
+        real rooms need — wall faces that are not one plane (window recesses, radiators)
+        merge within 10 cm, sparse far walls count from 1 m², and a wall may stop up to
+        0.3 m under the ceiling (soffits, curtain boxes). σ, δ and the bin still come from
+        the data. (Synthetic rooms keep the defaults: with a 0.3 m band a 2.2 m shelf under
+        a 2.4 m ceiling would count as a wall.)"""
+        base = cls(min_interval=0.1, min_wall_area=1.0, wall_top_band=0.3)
+        return replace(base, **changes)
+
+    @property
+    def complete(self) -> bool:
+        """True when every data-dependent field (σ, σ_noise, δ, bin) is set."""
+        return None not in (self.spacing, self.noise, self.shape_buffer, self.bin_size)
 
     def with_(self, **changes) -> "ManhattanParams":
         return replace(self, **changes)
@@ -137,16 +158,19 @@ def estimate_noise(xyz: np.ndarray, sample: int = 5000, k: int = 20, rng=0) -> f
 
 
 def params_from_data(xyz: np.ndarray, base: Optional[ManhattanParams] = None, rng=0) -> ManhattanParams:
-    """Choose σ, δ and the bin size from a cloud's spacing and noise.
+    """Fill the data-dependent fields left None from a cloud's spacing and noise.
 
-    ``xyz`` : (n, 3) float64, metres. ``base`` gives the other fields (defaults when None).
-    The rules: σ from :func:`estimate_spacing`; δ = clip(max(3 σ_noise, σ), 0.03,
+    ``xyz`` : (n, 3) float64, metres. ``base`` gives every other field (and any of these
+    already chosen; defaults when None). The rules: σ from :func:`estimate_spacing`,
+    σ_noise from :func:`estimate_noise`; δ = clip(max(3 σ_noise, σ), 0.03,
     max_wall_thickness / 4); bin = clip(2 σ_noise, 0.02, 0.05) but ≤ max_wall_thickness / 2.
     """
     base = base or ManhattanParams()
     spacing = base.spacing if base.spacing is not None else estimate_spacing(xyz, rng=rng)
-    noise = estimate_noise(xyz, rng=rng)
-    buffer = float(np.clip(max(3 * noise, spacing), 0.03, base.max_wall_thickness / 4))
-    bin_size = float(min(np.clip(2 * noise, 0.02, 0.05), base.max_wall_thickness / 2))
-    noise = base.noise if base.noise is not None else noise
-    return replace(base, spacing=spacing, shape_buffer=buffer, bin_size=bin_size, noise=noise)
+    noise = base.noise if base.noise is not None else estimate_noise(xyz, rng=rng)
+    buffer = base.shape_buffer if base.shape_buffer is not None else \
+        float(np.clip(max(3 * noise, spacing), 0.03, base.max_wall_thickness / 4))
+    bin_size = base.bin_size if base.bin_size is not None else \
+        float(min(np.clip(2 * noise, 0.02, 0.05), base.max_wall_thickness / 2))
+    return replace(base, spacing=float(spacing), shape_buffer=float(buffer), bin_size=float(bin_size),
+                   noise=float(noise))
