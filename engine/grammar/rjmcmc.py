@@ -39,6 +39,9 @@ Departures from SPEC.md (recorded here as asked):
   small uncovered cells where walls meet (or through a wall cell), which the scope width
   alone (one oriented box per space) cannot see. Uncovered cells may still join a space at
   its edge; the likelihood decides.
+* ``P_vert`` credits a boundary face to a space only where the space's cell on that face
+  is covered: a wall is seen from under the room's ceiling. Otherwise taking in the wall
+  cell between two rooms lets one room claim the other room's wall surface.
 * The chain starts from a greedy best-improvement ascent from the empty model
   (``RjmcmcParams.greedy_start``), and after the chain, a greedy *polish* applies
 the best strictly improving move until none improves (``RjmcmcParams.polish``). The
@@ -202,7 +205,7 @@ class SpaceSearch:
                 if other >= 0 and other in S:
                     if c < other:  # internal face, once
                         inside += cov.face[fi]
-                else:
+                elif self.covered[c]:  # a wall seen from under this space's ceiling
                     vert += cov.face[fi]
         ratio = max(top / area if area > 0 else 0.0, self.params.min_ratio)
         ok = self._wide(S) and (not self.params.connected_cover or self._cover_connected(S))
@@ -533,6 +536,9 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
                 for s in f.segments]
     geom_h = alpha_geometry(ceil[:, :2], r_alpha, blockers=blockers, snap=shape_buffer)
     H = geom_h.area
+    polys = np.array(cells.polygons, dtype=object)
+    cell_top = shapely.area(shapely.intersection(geom_h, polys)) if not geom_h.is_empty else np.zeros(len(polys))
+    covered = cell_top >= params.cover_ratio * shapely.area(polys)
     H, V = max(H, 1e-12), max(V, 1e-12)
     s_top = s_vert = s_in = s_log = 0.0
     for sp in spaces:
@@ -547,7 +553,8 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
         s_log += math.log(max(top / poly.area, params.min_ratio))
         spc = set(sp)
         for fi, f in enumerate(cells.faces):  # the space's boundary faces, from the points
-            if (f.a in spc) != (f.b in spc):
+            mine = f.a if f.a in spc else f.b
+            if (f.a in spc) != (f.b in spc) and covered[mine]:
                 bz0, bz1 = _face_band(f, zr, ceiling_z, wall_band)
                 s_vert += sum(_face_cov(vw, a, b, bz0, bz1, shape_buffer, r_alpha) for a, b in f.segments)
         inner = poly.buffer(-shape_buffer, join_style="mitre")
