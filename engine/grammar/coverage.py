@@ -443,9 +443,27 @@ def cell_heights(cells: CellSet, hw: np.ndarray):
             idx, z = idx[order], z[order]
             cuts = np.flatnonzero(np.diff(idx)) + 1
             for grp_i, grp_z in zip(np.split(idx, cuts), np.split(z, cuts)):
-                arr[grp_i[0]] = float(np.median(grp_z))
+                arr[grp_i[0]] = _layer_height(grp_z)
 
     return hc, upper, ceiling_z, floor_z
+
+
+_LAYER_BIN = 0.02
+"""Bin of the height histogram that finds a cell's ceiling / floor layer, metres."""
+_LAYER_HALF_WIDTH = 0.06
+"""Points within this of the densest bin make the layer (about 3σ of mobile noise), metres."""
+
+
+def _layer_height(z: np.ndarray) -> float:
+    """Height of the densest horizontal layer among ``z`` (metres): the median of the points
+    near the histogram peak, so table tops under a ceiling or over a floor do not pull it."""
+    if len(z) < 3:
+        return float(np.median(z))
+    lo = float(z.min())
+    k = np.floor((z - lo) / _LAYER_BIN).astype(np.int64)
+    peak = lo + (np.argmax(np.bincount(k)) + 0.5) * _LAYER_BIN
+    near = z[np.abs(z - peak) <= _LAYER_HALF_WIDTH]
+    return float(np.median(near)) if len(near) else float(np.median(z))
 
 
 def _face_band(f: Face, zr: np.ndarray, ceiling_z: np.ndarray, band: float) -> tuple:

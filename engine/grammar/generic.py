@@ -280,6 +280,13 @@ def _line_dist(v: np.ndarray, seg: np.ndarray) -> np.ndarray:
     return np.abs((v - seg[0]) @ nrm)
 
 
+def _weighted_median(v: np.ndarray, w: np.ndarray) -> float:
+    """Area-weighted median of the cells' heights (a cell under a table does not tilt it)."""
+    o = np.argsort(v)
+    cw = np.cumsum(w[o])
+    return float(v[o][np.searchsorted(cw, cw[-1] / 2)])
+
+
 def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) -> list[Shape]:
     """Shapes of one storey: spaces, walls (SPEC.md §3.4), exterior, and the cells.
 
@@ -317,8 +324,8 @@ def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) 
         a = cov.area[sp]
         cz, fz = cov.ceiling_z[sp], cov.floor_z[sp]
         okc, okf = np.isfinite(cz), np.isfinite(fz)
-        z1 = float(np.sum(cz[okc] * a[okc]) / np.sum(a[okc])) if okc.any() else st.ceiling_z
-        z0 = float(np.sum(fz[okf] * a[okf]) / np.sum(a[okf])) if okf.any() else st.floor_z
+        z1 = _weighted_median(cz[okc], a[okc]) if okc.any() else st.ceiling_z
+        z0 = _weighted_median(fz[okf], a[okf]) if okf.any() else st.floor_z
         sid = f"s{index}_space{k}"
         top = float(cov.top[sp].sum())
         shapes.append(Shape(
