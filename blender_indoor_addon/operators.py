@@ -1,0 +1,117 @@
+"""Operators: read properties, call one engine function, hand the result to the bridge.
+
+Engine errors (:class:`~engine.errors.IndoorError`) become ``self.report({'ERROR'}, ...)``
+and ``{'CANCELLED'}``; the scene is left as it was.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import time
+
+import bpy
+from bpy.props import FloatProperty, IntProperty, StringProperty
+from bpy_extras.io_utils import ImportHelper
+
+from ..engine.errors import IndoorError
+from . import bridge
+
+log = logging.getLogger(__name__)
+
+__all__ = ["INDOOR_OT_import_scan", "SCAN_EXTENSIONS", "CLASSES", "menu_import"]
+
+SCAN_EXTENSIONS = (".ply", ".pcd", ".e57", ".las", ".laz", ".pts", ".xyz", ".txt", ".csv")
+"""File extensions the Import scan file browser shows (the engine decides what it reads)."""
+
+
+def _progress_callback(context):
+    """A ``progress(fraction, message)`` callback driving the window manager's progress bar."""
+    wm = context.window_manager
+
+    def progress(fraction, message=""):
+        wm.progress_update(int(round(1000 * fraction)))
+        if message:
+            log.debug("%3.0f%% %s", 100 * fraction, message)
+
+    return progress
+
+
+class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
+    """Import a laser scan as a point mesh (points with colour, intensity, normal and other attributes)"""
+
+    bl_idname = "indoor.import_scan"
+    bl_label = "Import Scan"
+    bl_options = {"REGISTER", "UNDO", "PRESET"}
+
+    filename_ext = ""  # several formats; the engine checks the extension
+    filter_glob: StringProperty(
+        default=";".join("*" + e for e in SCAN_EXTENSIONS),
+        options={"HIDDEN"},
+    )
+    display_ratio: FloatProperty(
+        name="Display ratio",
+        description="Share of the points drawn (the mesh keeps every point); "
+                    "defaults to the scene's Indoor setting",
+        default=1.0, min=0.0, max=1.0, subtype="FACTOR",
+    )
+    point_radius: FloatProperty(
+        name="Point radius",
+        description="Radius of each drawn point; defaults to the scene's Indoor setting",
+        default=0.01, min=0.0, soft_max=0.1, subtype="DISTANCE", unit="LENGTH", precision=4,
+    )
+    seed: IntProperty(name="Seed", description="Seed of the random display subset", default=0, min=0)
+
+    def _defaults_from_scene(self, context):
+        settings = getattr(context.scene, "indoor", None)
+        if settings is None:
+            return
+        for key in ("display_ratio", "point_radius", "seed"):
+            if not self.properties.is_property_set(key):
+                setattr(self, key, getattr(settings, key))
+
+    def invoke(self, context, event):
+        self._defaults_from_scene(context)
+        return ImportHelper.invoke(self, context, event)
+
+    def execute(self, context):
+        from ..engine.io import read_point_cloud  # the engine is imported on first use
+
+        self._defaults_from_scene(context)
+        path = bpy.path.abspath(self.filepath)
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        t0 = time.perf_counter()
+        try:
+            cloud = read_point_cloud(path, progress=_progress_callback(context))
+            t1 = time.perf_counter()
+            obj = bridge.point_cloud_to_object(
+                cloud, display_ratio=self.display_ratio, point_radius=self.point_radius,
+                seed=self.seed, scene=context.scene)
+        except IndoorError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        finally:
+            wm.progress_end()
+        t2 = time.perf_counter()
+        view_layer = context.view_layer
+        if view_layer is not None:
+            for o in view_layer.objects.selected:
+                o.select_set(False)
+            try:
+                obj.select_set(True, view_layer=view_layer)
+                view_layer.objects.active = obj
+            except RuntimeError:  # the Scan collection is excluded from this view layer
+                pass
+        self.report({"INFO"}, f"Imported {len(cloud):,} points from {os.path.basename(path)} "
+                              f"(read {t1 - t0:.2f} s, Blender {t2 - t1:.2f} s)")
+        log.info("imported %d points from %s: read %.2f s, Blender %.2f s", len(cloud), path, t1 - t0, t2 - t1)
+        return {"FINISHED"}
+
+
+def menu_import(self, context):
+    """File ▸ Import entry."""
+    self.layout.operator(INDOOR_OT_import_scan.bl_idname,
+                         text="Indoor Scan (" + " ".join(SCAN_EXTENSIONS) + ")")
+
+
+CLASSES = (INDOOR_OT_import_scan,)

@@ -1,0 +1,49 @@
+"""The sidebar tab View3D ▸ N panel ▸ "Indoor". Panels only draw: no computation here."""
+from __future__ import annotations
+
+import bpy
+
+from . import bridge
+
+__all__ = ["INDOOR_PT_import_scan", "CLASSES"]
+
+
+class _IndoorPanel:
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Indoor"
+
+
+class INDOOR_PT_import_scan(_IndoorPanel, bpy.types.Panel):
+    """Import a scan and set how the active scan is drawn."""
+
+    bl_idname = "INDOOR_PT_import_scan"
+    bl_label = "Import scan"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = getattr(context.scene, "indoor", None)
+        layout.operator("indoor.import_scan", icon="IMPORT")
+        if settings is not None:
+            col = layout.column(align=True)
+            col.prop(settings, "display_ratio")
+            col.prop(settings, "point_radius")
+        obj = context.active_object
+        if not bridge.is_point_mesh(obj):
+            return
+        box = layout.box()
+        box.label(text=obj.name, icon="POINTCLOUD_DATA")
+        box.label(text=f"{obj.get(bridge.COUNT_PROP, len(obj.data.vertices)):,} points")
+        offset = obj.get(bridge.OFFSET_PROP)
+        if offset is not None and any(offset):
+            box.label(text="Offset  " + "  ".join(f"{v:.3f}" for v in offset) + " m")
+        mod = obj.modifiers.get(bridge.POINTS_MODIFIER)
+        for name in (bridge.IN_RATIO, bridge.IN_RADIUS):
+            ident = bridge.input_identifier(obj, name)
+            if ident is not None:
+                box.prop(mod, f'["{ident}"]', text=name)
+
+
+CLASSES = (INDOOR_PT_import_scan,)

@@ -1,0 +1,307 @@
+"""The demo: the bundled sample scan through the add-on, headless.
+
+    .venv/bin/python scripts/demo.py --out out/demo            # bpy module (make demo)
+    blender -b -P scripts/demo.py -- --out out/demo            # a real Blender >= 4.2
+
+Writes into OUT: ``scan.blend`` (the scan as a point mesh in the "Scan" collection),
+``preview.png`` (Cycles CPU or Workbench renders: a top view cut below the ceiling and an oblique view,
+side by side) and ``summary.json`` (the cloud summary, per-stage timings, versions).
+
+Each stage is a function ``stage_<name>(state) -> dict`` that reads and extends ``state``;
+later capabilities (reconstruct, IFC export, evaluation) add stages to :data:`STAGES`.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import json
+import logging
+import os
+import site
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PACKAGE = "indoor_reconstruction"
+DEFAULT_SCAN = os.path.join(ROOT, "tests", "data", "room_scan1.pcd")
+
+log = logging.getLogger("indoor.demo")
+
+
+# --------------------------------------------------------------------------- set-up
+def _blender_argv(argv):
+    """Our arguments: after ``--`` inside Blender, else everything after the script."""
+    if "--" in argv:
+        return argv[argv.index("--") + 1:]
+    return argv[1:]
+
+
+def _borrow_venv_packages():
+    """Inside a real Blender binary its Python lacks scipy, open3d, ...: use the project's
+    .venv site-packages (the same rule as tests/run_tests.py; Blender's numpy stays first)."""
+    venv_site = os.path.join(ROOT, ".venv", "lib", "python%d.%d" % sys.version_info[:2], "site-packages")
+    if os.path.isdir(venv_site):
+        site.addsitedir(venv_site)
+
+
+def load_package(name=PACKAGE):
+    """Import the source tree (the repository root is the extension package) as ``name``."""
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(
+        name, os.path.join(ROOT, "__init__.py"), submodule_search_locations=[ROOT])
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(prog="demo.py", description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", default=os.path.join(ROOT, "out", "demo"), help="output folder")
+    p.add_argument("--scan", default=DEFAULT_SCAN, help="scan file (default: the bundled room scan)")
+    p.add_argument("--engine", choices=("cycles", "workbench"), default="cycles",
+                   help="preview renderer: Cycles CPU shows the colour attribute; Workbench (4.5) "
+                        "draws Geometry Nodes point clouds in one colour")
+    p.add_argument("--resolution", type=int, default=900, help="height of the preview, pixels")
+    p.add_argument("--point-radius", type=float, default=0.01, help="drawn point radius, metres")
+    p.add_argument("--preview-point-radius", type=float, default=0.02,
+                   help="drawn point radius in the preview, metres")
+    return p.parse_args(argv)
+
+
+# --------------------------------------------------------------------------- stages
+def stage_setup(state):
+    """Fresh factory scene, the add-on registered from the source tree."""
+    import bpy
+
+    bpy.ops.wm.read_homefile(app_template="", use_factory_startup=True)
+    for obj in list(bpy.data.objects):  # the default cube, light and camera
+        bpy.data.objects.remove(obj, do_unlink=True)
+    pkg = load_package()
+    pkg.register()
+    state["package"] = pkg
+    state["addon"] = importlib.import_module(PACKAGE + ".blender_indoor_addon")
+    return {"blender": bpy.app.version_string}
+
+
+def stage_import(state):
+    """The scan through the add-on's Import scan operator; the engine's summary of it."""
+    import bpy
+
+    scan = os.path.abspath(state["args"].scan)
+    result = bpy.ops.indoor.import_scan(filepath=scan, point_radius=state["args"].point_radius)
+    if result != {"FINISHED"}:
+        raise SystemExit(f"demo: importing {scan} failed ({result}); see the log above")
+    obj = bpy.context.view_layer.objects.active
+    state["scan_object"] = obj
+    cloud = state["package"].engine.io.read_point_cloud(scan)  # for the summary only
+    summary = cloud.summary()
+    summary["source"] = os.path.relpath(scan, ROOT) if scan.startswith(ROOT) else scan
+    return {"object": obj.name, "vertices": len(obj.data.vertices),
+            "attributes": sorted(a.name for a in obj.data.attributes if not a.name.startswith(".")),
+            "cloud": summary}
+
+
+def stage_save_blend(state):
+    import bpy
+
+    path = os.path.join(state["out"], "scan.blend")
+    atomic_path = state["package"].engine.fileutil.atomic_path
+    with atomic_path(path, suffix=".blend") as tmp:
+        os.remove(tmp)  # else Blender keeps the empty placeholder as a ".blend1" backup
+        bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True, compress=True)
+    return {"blend": os.path.basename(path)}
+
+
+def _look_at(obj, target):
+    from mathutils import Vector
+
+    direction = Vector(target) - obj.location
+    obj.rotation_euler = direction.to_track_quat("-Z", "Y").to_euler()
+
+
+def _render_view(scene, camera, path):
+    import bpy
+
+    scene.camera = camera
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+
+
+def _robust_bounds(obj):
+    """3rd–97th percentile box of the vertices (a few far outliers must not set the framing)."""
+    import numpy as np
+
+    bridge = importlib.import_module(PACKAGE + ".blender_indoor_addon.bridge")
+    xyz, _ = bridge.object_points(obj)
+    return np.percentile(xyz, 3, axis=0), np.percentile(xyz, 97, axis=0)
+
+
+def stage_render(state):
+    """Workbench previews: top view cut below the ceiling, oblique view; joined side by side."""
+    import bpy
+    import numpy as np
+
+    args, obj, scene = state["args"], state["scan_object"], bpy.context.scene
+    bridge = importlib.import_module(PACKAGE + ".blender_indoor_addon.bridge")
+    out = {}
+    lo, hi = _robust_bounds(obj)
+    centre = (lo + hi) / 2
+    size = hi - lo
+    scene.render.engine = "CYCLES" if args.engine == "cycles" else "BLENDER_WORKBENCH"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 8
+    scene.cycles.use_denoising = False
+    mat = bpy.data.materials.new("Preview height")
+    mat.use_nodes = True
+    nt = mat.node_tree
+    attr = nt.nodes.new("ShaderNodeAttribute")
+    attr.attribute_type = "GEOMETRY"
+    attr.attribute_name = "height_color"
+    em = nt.nodes.new("ShaderNodeEmission")
+    nt.links.new(attr.outputs["Color"], em.inputs["Color"])
+    nt.links.new(em.outputs["Emission"], nt.nodes["Material Output"].inputs["Surface"])
+    shading = scene.display.shading
+    shading.light = "FLAT"
+    shading.color_type = "VERTEX"  # "Attribute" in the UI: the active colour attribute
+    if not obj.data.color_attributes:  # a scan without colour: colour by height for the preview
+        lo_z, hi_z = lo[2], hi[2]
+        bridge.add_height_colors(obj, z_range=(lo_z, hi_z))
+        out["colour"] = "height"
+    else:
+        out["colour"] = "scan colours"
+    bridge.set_display(obj, point_radius=args.preview_point_radius, material=mat)
+    shading.show_cavity = False
+    shading.show_shadows = False
+    scene.display.render_aa = "8"
+    world = scene.world or bpy.data.worlds.new("World")
+    scene.world = world
+    world.color = (0.02, 0.02, 0.025)
+    scene.render.film_transparent = False
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.resolution_percentage = 100
+    h = int(args.resolution)
+
+    paths = []
+    # top view, orthographic, the camera's near clip just below the ceiling
+    cam_top = bpy.data.objects.new("Top view", bpy.data.cameras.new("Top view"))
+    scene.collection.objects.link(cam_top)
+    cam_top.data.type = "ORTHO"
+    cam_top.location = (centre[0], centre[1], hi[2] + 5.0)
+    cam_top.rotation_euler = (0.0, 0.0, 0.0)
+    cut_z = hi[2] - 0.25 * size[2]
+    cam_top.data.clip_start = cam_top.location.z - cut_z
+    cam_top.data.clip_end = cam_top.location.z - lo[2] + 5.0
+    aspect_top = size[0] / max(size[1], 1e-6)
+    cam_top.data.ortho_scale = 1.08 * max(size[0], size[1])
+    scene.render.resolution_x, scene.render.resolution_y = int(h * min(max(aspect_top, 0.5), 2.0)), h
+    paths.append(os.path.join(state["out"], ".preview_top.png"))
+    t = time.perf_counter()
+    _render_view(scene, cam_top, paths[-1])
+    out["top_render_s"] = round(time.perf_counter() - t, 3)
+    out["top_cut_z_m"] = float(cut_z)
+
+    # oblique view from the south-west, above, same cut so the room is visible
+    cam_ob = bpy.data.objects.new("Oblique view", bpy.data.cameras.new("Oblique view"))
+    scene.collection.objects.link(cam_ob)
+    cam_ob.data.lens = 28
+    radius = float(np.linalg.norm(size[:2]))
+    cam_ob.location = (centre[0] - 0.55 * radius, centre[1] - 0.65 * radius, hi[2] + 0.6 * radius)
+    _look_at(cam_ob, (centre[0], centre[1], lo[2]))
+    cam_ob.data.clip_start = 0.1
+    cam_ob.data.clip_end = 10 * radius
+    scene.render.resolution_x, scene.render.resolution_y = int(h * 4 / 3), h
+    paths.append(os.path.join(state["out"], ".preview_oblique.png"))
+    t = time.perf_counter()
+    _render_view(scene, cam_ob, paths[-1])
+    out["oblique_render_s"] = round(time.perf_counter() - t, 3)
+
+    preview = os.path.join(state["out"], "preview.png")
+    _join_images(paths, preview, state["package"].engine.fileutil.atomic_path)
+    for p in paths:
+        os.remove(p)
+    out["preview"] = os.path.basename(preview)
+    return out
+
+
+def _join_images(paths, dest, atomic_path):
+    """Place PNGs side by side (same height) into one PNG, through Blender's image API."""
+    import bpy
+    import numpy as np
+
+    images = [bpy.data.images.load(p) for p in paths]
+    try:
+        h = images[0].size[1]
+        gap = 8
+        width = sum(im.size[0] for im in images) + gap * (len(images) - 1)
+        canvas = np.zeros((h, width, 4), dtype=np.float32)
+        canvas[..., 3] = 1.0
+        x = 0
+        for im in images:
+            w, ih = im.size
+            px = np.empty(w * ih * 4, dtype=np.float32)
+            im.pixels.foreach_get(px)
+            canvas[:ih, x:x + w] = px.reshape(ih, w, 4)
+            x += w + gap
+        joined = bpy.data.images.new("preview", width, h, alpha=False)
+        joined.pixels.foreach_set(canvas.ravel())
+        with atomic_path(dest, suffix=".png") as tmp:
+            joined.filepath_raw = tmp
+            joined.file_format = "PNG"
+            joined.save()
+        bpy.data.images.remove(joined)
+    finally:
+        for im in images:
+            bpy.data.images.remove(im)
+
+
+STAGES = [("setup", stage_setup), ("import", stage_import), ("save_blend", stage_save_blend),
+          ("render", stage_render)]
+"""(name, function) in order; each returns a JSON-ready dict stored under its name."""
+
+
+def run(args):
+    out = os.path.abspath(args.out)
+    os.makedirs(out, exist_ok=True)
+    state = {"args": args, "out": out}
+    summary = {"scan": os.path.relpath(os.path.abspath(args.scan), ROOT), "stages": {}, "timings_s": {}}
+    t_all = time.perf_counter()
+    for name, fn in STAGES:
+        t = time.perf_counter()
+        summary["stages"][name] = fn(state)
+        summary["timings_s"][name] = round(time.perf_counter() - t, 3)
+        log.info("demo: %s done in %.2f s", name, summary["timings_s"][name])
+    summary["timings_s"]["total"] = round(time.perf_counter() - t_all, 3)
+    state["package"].engine.fileutil.atomic_write_text(
+        os.path.join(out, "summary.json"), json.dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def main(argv=None):
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    args = parse_args(_blender_argv(sys.argv if argv is None else argv))
+    try:
+        import bpy  # noqa: F401
+    except ImportError:
+        raise SystemExit("demo.py needs Blender: run it with the bpy module or `blender -b -P`")
+    if bpy.app.binary_path:  # a Blender executable (empty under the bpy module)
+        _borrow_venv_packages()
+    try:
+        summary = run(args)
+    finally:
+        # Unregister before exit: with classes still registered the bpy module (4.5) hangs
+        # while shutting down.
+        pkg = sys.modules.get(PACKAGE)
+        if pkg is not None:
+            pkg.unregister()
+    s = summary["stages"]["import"]
+    logging.getLogger("indoor.demo").info(
+        "demo: %d points -> %s (scan.blend, preview.png, summary.json) in %.1f s",
+        s["vertices"], args.out, summary["timings_s"]["total"])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
