@@ -203,29 +203,39 @@ def truth_walls(truth, transform, cloud_aligned, label_wall=0, band=0.03, grid=0
 
 
 def match_planes(planes, walls, max_angle_deg, max_dist):
-    """Which visible (≥ 50 %) true walls have a plane within the angle and the distance
-    (measured at the wall's centre, and the plane's support must overlap the wall), and
-    which planes match no true wall. Returns (matched flags for visible walls, ids of
-    unmatched planes)."""
+    """Which visible (≥ 50 %) true walls have a plane within the angle and the distance,
+    and which planes match no true wall.
+
+    A plane matches a true wall when their normals are within ``max_angle_deg`` and, over
+    the stretch where the plane's segment and the wall overlap along the wall, the plane
+    lies within ``max_dist`` of the wall (checked at both ends of the overlap). Returns
+    (matched flags of the visible walls, ids of unmatched planes)."""
     used = set()
     flags = []
     for n, off, poly, vis in walls:
-        c = poly.mean(axis=0)
         u = np.cross([0, 0, 1.0], n)
+        u /= np.linalg.norm(u)
         tu = poly @ u
         ok = False
         for p in planes:
             ang = np.degrees(np.arccos(min(1.0, abs(float(p.normal @ n)))))
-            if ang > max_angle_deg or abs(p.distance(c)) > max_dist:
+            if ang > max_angle_deg:
                 continue
-            seg_t = p.segment @ u[:2]
-            if min(seg_t.max(), tu.max()) - max(seg_t.min(), tu.min()) <= 0:
+            e0, e1 = p.segment
+            a0, a1 = float(e0 @ u[:2]), float(e1 @ u[:2])
+            lo, hi = max(min(a0, a1), tu.min()), min(max(a0, a1), tu.max())
+            if hi - lo <= 0:
+                continue
+            dist = 0.0
+            for t in (lo, hi):
+                x = e0 + (e1 - e0) * ((t - a0) / (a1 - a0) if a1 != a0 else 0.0)
+                dist = max(dist, abs(float(n[:2] @ x) - off))
+            if dist > max_dist:
                 continue
             used.add(p.id)
             ok = True
         if vis >= 0.5:
             flags.append(ok)
-    # a plane matches a true surface when it is within the tolerances of any true wall
     unmatched = [p.id for p in planes if p.id not in used]
     return flags, unmatched
 

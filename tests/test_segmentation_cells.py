@@ -159,3 +159,17 @@ def test_preprocess_rejects_a_single_plane():
     xyz = np.c_[rng.random((20000, 2)) * 5, rng.normal(0, 0.003, 20000)]
     with pytest.raises(ReconstructionError):
         preprocess(PointCloud(xyz=xyz, source="floor_only.ply"))
+
+
+def test_preprocess_can_be_cancelled():
+    from engine.errors import Cancelled
+
+    cloud, _ = two_room_office(seed=8)
+    calls = []
+
+    def stop():
+        calls.append(1)
+        return len(calls) > 3
+
+    with pytest.raises(Cancelled):
+        preprocess(cloud, should_stop=stop)

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..errors import ReconstructionError
 from ..pointcloud import PointCloud
+from ..progress import Progress
 from .params import AlignParams, NormalParams
 
 __all__ = ["align_manhattan", "axial_kmeans", "AlignmentResult", "manhattan_residual"]
@@ -155,7 +156,7 @@ def _yaw(n: np.ndarray, up: np.ndarray, params: AlignParams):
 
 def align_manhattan(cloud: PointCloud, params: AlignParams = AlignParams(), *, rng=0,
                     normal_params: NormalParams = NormalParams(), yaw: bool = True,
-                    return_result: bool = False):
+                    return_result: bool = False, progress=None, should_stop=None):
     """Rotate the cloud so its dominant directions are the x, y, z axes.
 
     Parameters
@@ -170,6 +171,7 @@ def align_manhattan(cloud: PointCloud, params: AlignParams = AlignParams(), *, r
         False: only level the vertical (no rotation about z) — for non-Manhattan buildings.
     return_result : bool
         Also return the :class:`AlignmentResult`.
+    progress, should_stop : callables, see :class:`engine.progress.Progress`.
 
     Returns
     -------
@@ -189,8 +191,10 @@ def align_manhattan(cloud: PointCloud, params: AlignParams = AlignParams(), *, r
     from .cleaning import estimate_normals
 
     rng = np.random.default_rng(rng)
+    p = Progress.wrap(progress, should_stop)
+    p(0.0, "Manhattan alignment")
     if cloud.normals is None:
-        cloud = estimate_normals(cloud, normal_params)
+        cloud = estimate_normals(cloud, normal_params, progress=p.sub(0.0, 0.5))
     n = cloud.normals.astype(np.float64)
     ok = np.isfinite(n).all(axis=1)
     n = n[ok]
@@ -230,6 +234,7 @@ def align_manhattan(cloud: PointCloud, params: AlignParams = AlignParams(), *, r
     m = np.eye(4)
     m[:3, :3] = rot
     aligned = cloud.transformed(m)
+    p(1.0, "aligned")
     back = np.eye(4)
     back[:3, :3] = rot.T
     return (aligned, back, res) if return_result else (aligned, back)

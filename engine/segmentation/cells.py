@@ -9,15 +9,17 @@ Method (per storey)
    along the wall line.
 2. *Extension, only as far as needed.* Segments are **not** extended to infinite lines
    (that multiplies the cells: n walls give O(n²) faces). Each end of a segment is
-   extended along its line, at most ``max_extension``, to the **farthest** other wall
-   *segment* it crosses within that distance (so an occluded corner is closed even when a
-   shelf face reaching the ceiling stands in front of it); when it crosses no segment, to
-   the **first** other wall *line* whose segment ends within ``max_extension`` of the
-   meeting point (two walls both stopping short of their common corner). This closes
-   corners and T-junctions left open by occlusion and by door openings at wall ends. The
-   end goes ``snap_overshoot`` past the crossing so noding sees it. An end that meets nothing stays where the data put it: a dangling
-   edge, which polygonize drops, so it makes no cell. Door openings in the middle of a wall
-   are inside its segment (the segment spans the support's min..max), so rooms stay closed.
+   extended along its line, at most ``max_extension``, to the **first** other wall line
+   it meets whose segment passes within ``max_extension`` of the meeting point (two walls
+   that both stop short of their common corner meet), and from there on through the
+   following wall *segments* it crosses as long as each is within ``chain_gap`` of the
+   previous one — the two faces of a wall, or a shelf face reaching the ceiling in front
+   of an occluded corner, do not stop the wall short of the corner. This closes corners
+   and T-junctions left open by occlusion and by door openings at wall ends. The end goes
+   ``snap_overshoot`` past the last crossing so noding sees it. An end that meets nothing
+   stays where the data put it: a dangling edge, which polygonize drops, so it makes no
+   cell. Door openings in the middle of a wall are inside its segment (the segment spans
+   the support's min..max), so rooms stay closed.
 3. *Arrangement.* The segments and the building's extent (the x, y box of the storey's
    points grown by ``extent_margin``) are noded (``shapely.unary_union``) and polygonized
    (``shapely.ops.polygonize``); faces smaller than ``min_cell_area`` are merged into the
@@ -302,7 +304,7 @@ def wall_segments(walls: Sequence[Plane], params: CellParams = CellParams()) -> 
             other = segs[i, 1 - end]
             if np.dot(p - other, d) < 0:
                 d = -d
-            best, best_proper = None, None
+            hits = []  # (distance along the ray, crosses the other segment proper?)
             for j in range(m):
                 if j == i:
                     continue
@@ -314,21 +316,21 @@ def wall_segments(walls: Sequence[Plane], params: CellParams = CellParams()) -> 
                 w = q0 - p
                 s = (w[0] * e[1] - w[1] * e[0]) / denom  # along the ray
                 t = (w[0] * d[1] - w[1] * d[0]) / denom  # along the other segment, 0..1
-                if s < -params.max_extension or s > params.max_extension:
-                    continue
+                if s < -params.snap_overshoot or s > params.max_extension:
+                    continue  # behind the end (the segment already crosses it) or too far
                 ln = np.linalg.norm(e)
-                tol = params.max_extension / max(ln, 1e-9)
-                if t < -tol or t > 1 + tol:
+                if t < -params.max_extension / max(ln, 1e-9) or t > 1 + params.max_extension / max(ln, 1e-9):
                     continue
-                if s < -params.snap_overshoot:
-                    continue  # the segment already crosses that line
-                if best is None or s < best:
-                    best = s
                 inside = params.snap_overshoot / max(ln, 1e-9)
-                if -inside <= t <= 1 + inside and (best_proper is None or s > best_proper):
-                    best_proper = s
-            if best_proper is not None:
-                best = best_proper
+                hits.append((s, -inside <= t <= 1 + inside))
+            best = None
+            if hits:
+                hits.sort()
+                best = hits[0][0]
+                for s_next, proper in hits[1:]:  # go on through a chain of close walls
+                    if not proper or s_next - best > params.chain_gap:
+                        break
+                    best = s_next
             if best is not None:
                 out[i, end] = p + (best + params.snap_overshoot) * d
     return out

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import EmptyCloudError, MissingDependencyError
 from ..pointcloud import PointCloud
+from ..progress import Progress
 from .params import CleanParams, NormalParams
 
 __all__ = ["drop_nonfinite", "voxel_downsample", "remove_statistical_outliers", "estimate_normals",
@@ -106,7 +107,8 @@ def remove_statistical_outliers(cloud: PointCloud, neighbors: int, std_ratio: fl
     return (cloud if keep.all() else cloud.subset(keep)), keep
 
 
-def clean(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[PointCloud, np.ndarray, float]:
+def clean(cloud: PointCloud, params: CleanParams = CleanParams(), *, progress=None,
+          should_stop=None) -> tuple[PointCloud, np.ndarray, float]:
     """Non-finite rows dropped, voxel downsampling, statistical outlier removal.
 
     Returns
@@ -124,6 +126,8 @@ def clean(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[Point
     EmptyCloudError
         Fewer than ``params.min_points`` usable points remain.
     """
+    p = Progress.wrap(progress, should_stop)
+    p(0.0, "cleaning")
     finite = drop_nonfinite(cloud)
     if len(finite) < params.min_points:
         raise EmptyCloudError(
@@ -140,6 +144,7 @@ def clean(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[Point
         work = finite.subset(kept)
     else:
         work, kept = finite, np.arange(len(finite), dtype=np.int64)
+    p(0.5, "outlier removal")
     if params.remove_outliers:
         work, keep = remove_statistical_outliers(work, params.outlier_neighbors, params.outlier_std_ratio)
         kept = kept[keep]
@@ -147,6 +152,7 @@ def clean(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[Point
         raise EmptyCloudError(
             f"only {len(work)} points left after downsampling to {params.voxel_size} m voxels "
             f"(at least {params.min_points} are needed)", cloud.source or None)
+    p(1.0, f"{len(work)} working points")
     log.info("cleaned %s: %d -> %d working points (voxel %.3f m)", _name(cloud), len(cloud), len(work), voxel)
     return work, kept, float(max(voxel, 0.0))
 
@@ -159,7 +165,8 @@ def _o3d():
     return o3d
 
 
-def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams()) -> PointCloud:
+def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *, progress=None,
+                     should_stop=None) -> PointCloud:
     """PCA normals over a hybrid radius / k-nearest neighbourhood (open3d).
 
     Parameters
@@ -175,8 +182,9 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams()) -
         (``scanner_positions`` (k, 3) with ``scan_index``, or a single position) and
         ``params.orient_to_scanner``, each normal faces its scanner
         (``n · (s − p) ≥ 0``); otherwise the sign is open3d's (arbitrary but consistent
-        enough for nothing in this package depends on it). Points with too few neighbours
-        get the normal of the PCA over their ``max_nn`` nearest points.
+        enough: nothing in this package depends on it). Points with fewer than 3 neighbours
+        within the radius (sparse areas far from the scanner) get the PCA normal of their
+        ``fallback_knn`` nearest points.
 
     Raises
     ------
@@ -185,20 +193,38 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams()) -
     """
     if len(cloud) < 3:
         raise EmptyCloudError("normals need at least 3 points", cloud.source or None)
+    p = Progress.wrap(progress, should_stop)
+    p(0.0, "normals")
     o3d = _o3d()
     pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.xyz))
     pc.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=params.radius, max_nn=params.max_nn))
     nrm = np.asarray(pc.normals, dtype=np.float64)
-    bad = ~np.isfinite(nrm).all(axis=1) | (np.linalg.norm(nrm, axis=1) < 0.5)
-    if bad.any():
-        nrm[bad] = (0.0, 0.0, 1.0)
+    # open3d leaves exactly (0, 0, 1) when a neighbourhood has fewer than 3 points
+    bad = (~np.isfinite(nrm).all(axis=1) | (np.linalg.norm(nrm, axis=1) < 0.5)
+           | ((nrm[:, 0] == 0.0) & (nrm[:, 1] == 0.0)))
+    if bad.any():  # too few neighbours within the radius (sparse, far from the scanner)
+        nrm[bad] = _knn_normals(cloud.xyz, np.nonzero(bad)[0], params.fallback_knn)
     if params.orient_to_scanner:
         s = _scanner_of_points(cloud)
         if s is not None:
             ok = np.isfinite(s).all(axis=1)
             flip = ok & (np.einsum("ij,ij->i", nrm, s - cloud.xyz) < 0)
             nrm[flip] *= -1.0
+    p(1.0, "normals done")
     return cloud.with_(normals=nrm.astype(np.float32))
+
+
+def _knn_normals(xyz: np.ndarray, idx: np.ndarray, k: int) -> np.ndarray:
+    """(len(idx), 3) PCA normals of the points ``idx`` over their ``k`` nearest neighbours."""
+    from scipy.spatial import cKDTree
+
+    k = int(min(k, len(xyz)))
+    _, nb = cKDTree(xyz).query(xyz[idx], k=k, workers=-1)
+    nb = nb.reshape(len(idx), k)
+    q = xyz[nb] - xyz[nb].mean(axis=1, keepdims=True)
+    cov = np.einsum("nki,nkj->nij", q, q)
+    _, vec = np.linalg.eigh(cov)
+    return vec[:, :, 0]
 
 
 def _scanner_of_points(cloud: PointCloud):

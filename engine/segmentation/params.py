@@ -57,6 +57,9 @@ class NormalParams:
     """Minimum radius in voxels of the working cloud (so about 20 neighbours remain)."""
     max_nn: int = 30
     """At most this many neighbours enter the PCA."""
+    fallback_knn: int = 12
+    """Points with too few neighbours within ``radius`` get the PCA normal of this many
+    nearest neighbours instead."""
     orient_to_scanner: bool = True
     """Flip normals to face the scanner of each point when scanner positions are known
     (``cloud.scanner_positions`` with ``cloud.scan_index``, or a single position)."""
@@ -141,7 +144,7 @@ class PlaneParams:
     each plane's residuals when the data are noisier (mobile scans)."""
     noise_factor: float = 2.5
     """Inlier band in units of the plane's robust residual σ (1.4826 × MAD)."""
-    max_distance_threshold: float = 0.08
+    max_distance_threshold: float = 0.05
     """Cap of the adaptive inlier band, metres (below half the thinnest wall)."""
     iterations: int = 200
     """RANSAC hypotheses per plane."""
@@ -152,6 +155,10 @@ class PlaneParams:
     """A plane needs at least this many supporting points (of the working cloud)."""
     min_extent: float = 0.3
     """A plane's support must span at least this in its longest direction, metres."""
+    max_bend: float = math.radians(1.0)
+    """When the two halves of a wall plane's inliers differ in direction by more than this,
+    the plane straddles two walls meeting at a small angle and is refitted on the larger
+    half, radians."""
     min_fill: float = 0.15
     """A plane's support must occupy at least this share of its bounding rectangle on the
     plane (10 cm cells); occluded walls fill 0.3 and more, chance alignments of clutter
@@ -176,6 +183,9 @@ class PlaneParams:
     in both directions), metres (≤ the data's nominal accuracy; SPEC.md §3.1). The larger
     of the two planes' adaptive inlier bands is used instead when it is wider (noisy mobile
     data, where the tails of one wall's noise otherwise form parallel planes ±2σ away)."""
+    merge_keep: float = 0.9
+    """A merge is undone when the refitted plane keeps less than this share of the two
+    supports within its band (the two were not one plane)."""
     max_merge_rounds: int = 50
     """Safety bound on the refinement loop (it stops earlier when nothing merges)."""
 
@@ -184,9 +194,12 @@ class PlaneParams:
 class CellParams:
     """Cell decomposition (SPEC.md §3.1 "Cell decomposition")."""
 
-    max_extension: float = 1.5
+    max_extension: float = 2.0
     """A wall segment's end is extended along its line to the first other wall line it meets
     within this distance, metres; farther it stays a dangling end (no cell edge)."""
+    chain_gap: float = 0.6
+    """... and on through further wall segments each within this of the previous crossing
+    (wall faces, shelves in front of corners; rooms and corridors are wider), metres."""
     snap_overshoot: float = 0.01
     """An extended end goes this far past the wall it meets so noding finds the crossing."""
     extent_margin: float = 0.3

@@ -99,20 +99,21 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
 
     p(0.0, "cleaning")
     full = drop_nonfinite(cloud)
-    work, src, voxel = clean(full, params.clean)
+    work, src, voxel = clean(full, params.clean, progress=p.sub(0.0, 0.1))
     lap("clean")
     p(0.1, "normals")
     nparams = replace(params.normals, radius=max(params.normals.radius, params.normals.radius_voxels * voxel))
-    work = estimate_normals(work, nparams)
+    work = estimate_normals(work, nparams, progress=p.sub(0.1, 0.25))
     lap("normals")
     p(0.25, "alignment")
     aligned, transform, res = align_manhattan(work, params.align, rng=rng, normal_params=nparams,
-                                              yaw=params.align_manhattan, return_result=True)
+                                              yaw=params.align_manhattan, return_result=True,
+                                              progress=p.sub(0.25, 0.3))
     m = np.linalg.inv(transform)
     full_aligned = full.transformed(m)
     lap("align")
     p(0.3, "storeys")
-    storeys = detect_storeys(aligned, params.storeys)
+    storeys = detect_storeys(aligned, params.storeys, progress=p.sub(0.3, 0.35))
     labels = classify_points(aligned, params.classify)
     lap("storeys")
     planes, cells = [], None

@@ -12,10 +12,12 @@ In each tile a seeded RANSAC finds planes one after the other:
 - a point supports a hypothesis when it is within the inlier band and its normal agrees
   with the plane's within ``normal_agreement`` (this keeps the two walls of a corner apart);
 - the best hypothesis is refitted by least squares on its inliers (a 2D line fit of x, y for
-  walls, the mean z for horizontal planes), the inlier band is adapted to the plane's own
-  noise (``noise_factor`` × 1.4826·MAD of the residuals, between ``distance_threshold`` and
-  ``max_distance_threshold`` — so mobile scans with σ = 2 cm keep all their points) and the
-  fit is repeated;
+  walls, the mean z for horizontal planes) with the storey's inlier band —
+  ``noise_factor`` × the robust σ (1.4826·MAD) of the floor's heights, between
+  ``distance_threshold`` and ``max_distance_threshold``, so mobile scans with σ = 2 cm keep
+  their points while TLS scans keep a tight band (a band adapted per plane instead grew
+  on walls bent by a few degrees and fitted one tilted plane across the bend) — and the fit
+  is repeated;
 - it is kept when it has ``min_points`` inliers spanning ``min_extent`` and filling at least
   ``min_fill`` of their bounding rectangle (scattered clutter that lines up by chance does
   not); its inliers leave the tile's pool.
@@ -57,6 +59,8 @@ _MAD_TO_SIGMA = 1.4826
 _MIN_PAIR_SEPARATION = 0.05
 """Two-point wall hypotheses need points at least this far apart in x, y (metres), else
 their direction is noise."""
+_MAX_UNBEND = 3
+"""At most this many times a bent wall plane is cut to its larger half."""
 _MERGE_SAMPLE = 3000
 """At most this many supporting points enter a merge test's median (speed)."""
 
@@ -172,10 +176,14 @@ def _agree(normal, nrm, cos_agree):
     return np.abs(nrm @ normal) >= cos_agree
 
 
-def _refine(kind, normal, offset, pts, nrm, params: PlaneParams):
-    """Adaptive-band least-squares refinement; returns (normal, offset, inlier mask, band)."""
+def _refine(kind, normal, offset, pts, nrm, params: PlaneParams, band=None):
+    """Least-squares refinement; returns (normal, offset, inlier mask, band).
+
+    ``band`` is the storey's inlier band (from the floor's noise, see
+    :func:`_noise_band`); when None it is adapted to this plane's own residuals."""
     cos_agree = np.cos(params.normal_agreement)
-    band = params.distance_threshold
+    fixed = band is not None
+    band = params.distance_threshold if band is None else band
     ok = _agree(normal, nrm, cos_agree)
     inl = ok & (np.abs(pts @ normal - offset) <= band)
     for _ in range(3):
@@ -184,11 +192,47 @@ def _refine(kind, normal, offset, pts, nrm, params: PlaneParams):
         normal, offset = _fit(kind, pts[inl])
         ok = _agree(normal, nrm, cos_agree)
         r = pts @ normal - offset
-        wide = ok & (np.abs(r) <= 3 * band)
-        sigma = _MAD_TO_SIGMA * np.median(np.abs(r[wide])) if wide.any() else 0.0
-        band = float(np.clip(params.noise_factor * sigma, params.distance_threshold, params.max_distance_threshold))
+        if not fixed:
+            wide = ok & (np.abs(r) <= 3 * band)
+            sigma = _MAD_TO_SIGMA * np.median(np.abs(r[wide])) if wide.any() else 0.0
+            band = float(np.clip(params.noise_factor * sigma, params.distance_threshold,
+                                 params.max_distance_threshold))
         inl = ok & (np.abs(r) <= band)
     return normal, offset, inl, band
+
+
+def _noise_band(xyz, labels, storey: Storey, params: PlaneParams):
+    """Inlier band of a storey: ``noise_factor`` × the robust σ (1.4826 · MAD) of the floor
+    points' heights around ``storey.floor_z`` (a floor is flat, so its spread is the scan
+    noise), clipped to [``distance_threshold``, ``max_distance_threshold``]. None when the
+    floor has too few points."""
+    sel = (labels == CLASS_HORIZONTAL) & (np.abs(xyz[:, 2] - storey.floor_z) <= params.max_distance_threshold * 2)
+    if sel.sum() < params.min_points:
+        return None
+    r = xyz[sel, 2] - np.median(xyz[sel, 2])
+    sigma = _MAD_TO_SIGMA * np.median(np.abs(r))
+    return float(np.clip(params.noise_factor * sigma, params.distance_threshold, params.max_distance_threshold))
+
+
+def _bent_half(normal, P, inl, params: PlaneParams):
+    """When the two halves (along the wall) of a wall plane's inliers have directions more
+    than ``max_bend`` apart, the mask of the larger half; else None."""
+    idx = np.nonzero(inl)[0]
+    if len(idx) < 2 * params.min_points:
+        return None
+    u = np.array([-normal[1], normal[0]])
+    t = P[idx, :2] @ u
+    if t.max() - t.min() < 2 * params.min_extent:
+        return None
+    cut = np.median(t)
+    a, b = idx[t <= cut], idx[t > cut]
+    na, _ = _fit("wall", P[a])
+    nb, _ = _fit("wall", P[b])
+    if abs(float(na @ nb)) >= np.cos(params.max_bend):
+        return None
+    mask = np.zeros(len(P), bool)
+    mask[a if len(a) >= len(b) else b] = True
+    return mask
 
 
 def _fill(kind, normal, pts) -> float:
@@ -206,7 +250,7 @@ def _fill(kind, normal, pts) -> float:
     return len(np.unique(q[:, 0] * dims[1] + q[:, 1])) / float(dims[0] * dims[1])
 
 
-def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng):
+def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng, band=None):
     """Planes of one tile: list of (normal, offset, local inlier indices, band)."""
     out = []
     pool = np.arange(len(pts))
@@ -244,7 +288,14 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng):
         best = int(np.argmax(cnt))
         if cnt[best] * len(P) / len(SP) < params.min_points:
             break
-        normal, offset, inl, band = _refine(kind, hn[best], float(ho[best]), P, N, params)
+        normal, offset, inl, pband = _refine(kind, hn[best], float(ho[best]), P, N, params, band)
+        if kind == "wall":  # a chord across two walls meeting at a small angle: keep one
+            for _ in range(_MAX_UNBEND):
+                half = _bent_half(normal, P, inl, params)
+                if half is None:
+                    break
+                n2, o2 = _fit(kind, P[half])
+                normal, offset, inl, pband = _refine(kind, n2, o2, P, N, params, band)
         if inl.sum() < params.min_points:
             break
         sup = P[inl]
@@ -263,7 +314,7 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng):
                 break
             continue
         rejected = 0
-        out.append((normal, offset, pool[inl], band))
+        out.append((normal, offset, pool[inl], pband))
         pool = pool[~inl]
     return out
 
@@ -289,7 +340,7 @@ def _merge_round(planes_raw, xyz, nrm, params: PlaneParams, rng):
     for p in planes_raw:
         sup = p[2]
         samples.append(xyz[sup if len(sup) <= _MERGE_SAMPLE else rng.choice(sup, _MERGE_SAMPLE, replace=False)])
-    merged = False
+    cand = []
     ii, jj = np.nonzero(np.triu(np.abs(dots) >= cos_merge, 1))
     for a, b in zip(ii, jj):
         sign = 1.0 if dots[a, b] >= 0 else -1.0
@@ -301,30 +352,35 @@ def _merge_round(planes_raw, xyz, nrm, params: PlaneParams, rng):
         dab = np.median(np.abs(samples[a] @ normals[b] - offsets[b]))
         dba = np.median(np.abs(samples[b] @ normals[a] - offsets[a]))
         band = max(planes_raw[a][5], planes_raw[b][5])
-        if max(dab, dba) < max(params.merge_distance, min(2.0 * band, params.max_distance_threshold)):
-            ra, rb = find(a), find(b)
-            if ra != rb:
-                parent[rb] = ra
-                merged = True
-    if not merged:
+        d = max(dab, dba)
+        if d < max(params.merge_distance, min(2.0 * band, params.max_distance_threshold)):
+            cand.append((d, a, b))
+    if not cand:
         return planes_raw, False
-    groups: dict[int, list[int]] = {}
-    for k in range(m):
-        groups.setdefault(find(k), []).append(k)
-    out = []
-    for g in groups.values():
-        if len(g) == 1:
-            out.append(planes_raw[g[0]])
+    # greedy, closest pairs first; a merge is kept only when the refitted plane still holds
+    # ``merge_keep`` of the union within its band (two walls meeting at a small angle —
+    # or a local plane bridging them — do not become one bent plane)
+    cur = {k: planes_raw[k] for k in range(m)}
+    merged = False
+    for d, a, b in sorted(cand):
+        ra, rb = find(a), find(b)
+        if ra == rb:
             continue
-        sup = np.unique(np.concatenate([planes_raw[k][2] for k in g]))
-        kind = planes_raw[g[0]][3]
+        pa, pb = cur[ra], cur[rb]
+        sup = np.union1d(pa[2], pb[2])
+        kind = pa[3]
         normal, offset = _fit(kind, xyz[sup])
-        band = max(planes_raw[k][5] for k in g)
+        band = max(pa[5], pb[5])
         keep = np.abs(xyz[sup] @ normal - offset) <= band * 1.5
+        if keep.mean() < params.merge_keep:
+            continue
         sup = sup[keep]
         normal, offset = _fit(kind, xyz[sup])
-        out.append((normal, offset, sup, kind, planes_raw[g[0]][4], band))
-    return out, True
+        parent[rb] = ra
+        cur[ra] = (normal, offset, sup, kind, pa[4], band)
+        del cur[rb]
+        merged = True
+    return list(cur.values()), merged
 
 
 def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
@@ -371,7 +427,10 @@ def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
               [(s.index, s.floor_z - storey_margin, s.ceiling_z + storey_margin) for s in storeys])
     raw = []  # (normal, offset, support, kind, storey, band)
     jobs = []
+    bands = {}
     for si, z0, z1 in ranges:
+        bands[si] = None if not storeys else _noise_band(xyz, labels, next(s for s in storeys if s.index == si),
+                                                        params)
         zin = (xyz[:, 2] >= z0) & (xyz[:, 2] <= z1)
         for kind, cls in (("wall", CLASS_WALL), ("horizontal", CLASS_HORIZONTAL)):
             idx = np.nonzero(zin & (labels == cls))[0]
@@ -385,7 +444,7 @@ def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
                 jobs.append((si, kind, idx[part]))
     for k, (si, kind, idx) in enumerate(jobs):
         p(0.8 * k / max(len(jobs), 1), f"RANSAC tile {k + 1}/{len(jobs)}")
-        for normal, offset, loc, band in _ransac_tile(kind, xyz[idx], nrm[idx], params, rng):
+        for normal, offset, loc, band in _ransac_tile(kind, xyz[idx], nrm[idx], params, rng, bands[si]):
             raw.append((normal, offset, idx[loc], kind, si, band))
     log.info("%s: %d local planes in %d tiles", name, len(raw), len(jobs))
     for r in range(params.max_merge_rounds):

@@ -35,6 +35,7 @@ import numpy as np
 from ..errors import ReconstructionError
 from ..model import Storey
 from ..pointcloud import PointCloud
+from ..progress import Progress
 from .params import NormalParams, StoreyParams
 
 __all__ = ["detect_storeys", "detect_layers", "Layer"]
@@ -157,7 +158,8 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
 
 
 def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
-                   normal_params: NormalParams = NormalParams()) -> list[Storey]:
+                   normal_params: NormalParams = NormalParams(), progress=None,
+                   should_stop=None) -> list[Storey]:
     """Floor and ceiling heights of each storey of an aligned cloud (see module doc).
 
     Parameters
@@ -165,6 +167,7 @@ def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
     cloud : PointCloud
         Aligned (z up), metres; normals are estimated when missing.
     params : StoreyParams
+    progress, should_stop : callables, see :class:`engine.progress.Progress`.
 
     Returns
     -------
@@ -181,10 +184,13 @@ def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
     """
     from .cleaning import estimate_normals
 
+    p = Progress.wrap(progress, should_stop)
+    p(0.0, "storeys")
     if cloud.normals is None:
-        cloud = estimate_normals(cloud, normal_params)
+        cloud = estimate_normals(cloud, normal_params, progress=p.sub(0.0, 0.5))
     name = cloud.source or "point cloud"
     layers = detect_layers(cloud, params)
+    p(0.9, f"{len(layers)} horizontal layers")
     floors = [L for L in layers if L.kind == "floor"]
     ceilings = [L for L in layers if L.kind == "ceiling"]
     groups: list[list[Layer]] = []
@@ -210,6 +216,7 @@ def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
         raise ReconstructionError(
             f"{name}: no storey found — no floor layer with a ceiling layer at least "
             f"{params.min_storey_height} m above it (layers: {desc or 'none'})")
+    p(1.0, f"{len(storeys)} storey(s)")
     log.info("%s: %d storey(s): %s", name, len(storeys),
              ", ".join(f"[{s.floor_z:.3f}, {s.ceiling_z:.3f}]" for s in storeys))
     return storeys
