@@ -14,6 +14,21 @@ Parts are the placed cuboids, ids ``s<storey>_c<i>_<j>_<k>`` with ``grid=(i, j, 
 each stores the point-on-face index of its six faces (``ipof_f0`` … ``ipof_f5``, faces in
 the order bottom, top, −y, +x, +y, −x) and ``ipof_top`` / ``ipof_sides``, and a log of the
 rules that typed it.
+
+Departures from SPEC.md §2 (each needed by a test on synthetic or real scans):
+
+* Place: histogram peaks are measured in surface *area* (σ-cells), not raw counts, and
+  only points whose normal is along the axis vote. A peak is a wall only if its surface
+  reaches a ceiling under which it stands (:func:`_reaches_ceiling`): furniture faces
+  would otherwise cut rooms into slices whose common faces look closed. Where no wall
+  bounds the seen ceiling, the ceiling's seen extent bounds the grid.
+* Z cuts: the floor and every *ceiling level* of the storey (a level with nothing above
+  it), so rooms get their own ceiling heights; desks and shelves (surfaces with something
+  above and below) make no cut.
+* Point-on-face index: covered share of the face (see :mod:`.ipof`).
+* Classify: a thin cuboid is a wall only if its top is not seen and does not touch an
+  interior shape; a cuboid thin in both directions (a wall junction, whose faces are
+  hidden inside the walls) between at least two walls is a wall.
 """
 from __future__ import annotations
 
@@ -41,7 +56,7 @@ log = logging.getLogger(__name__)
 
 # --------------------------------------------------------------------------- rule 1: place
 def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyFrame,
-                     params: ManhattanParams, spacing: float, ceiling_cells=None) -> bool:
+                     params: ManhattanParams, spacing: float, ceiling_cells=None, sorted_t=None) -> bool:
     """Is the vertical surface at ``position`` a wall, i.e. does it reach a ceiling?
 
     ``pts`` : (n, 3) points of the storey except those facing the other horizontal axis
@@ -53,10 +68,14 @@ def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyF
     membership test of its occupied ``level_cell`` cells, or None). (Extension of SPEC.md rule 1, which takes every peak:
     furniture faces would cut rooms into slices whose common faces look closed.)
     """
-    near = np.abs(pts[:, axis] - position) <= max(1.5 * params.bin_size, params.shape_buffer / 2)
-    if not near.any():
+    w = max(1.5 * params.bin_size, params.shape_buffer / 2)
+    if sorted_t is not None:  # pts sorted along axis: take the slab by bisection
+        i0, i1 = np.searchsorted(sorted_t, [position - w, position + w])
+        q = pts[i0:i1]
+    else:
+        q = pts[np.abs(pts[:, axis] - position) <= w]
+    if len(q) == 0:
         return False
-    q = pts[near]
     o = 1 - axis
     lift = 3.0 * float(params.noise or 0.0)  # stay clear of the (noisy) ceiling itself
     if ceiling_cells is None:
@@ -82,7 +101,7 @@ def _cell_lookup(xy: np.ndarray, cell: float):
     returns f(k) → bool for (m, 2) int cell indices."""
     if len(xy) == 0:
         return lambda k: np.zeros(len(k), dtype=bool)
-    c = np.unique(np.floor(xy / cell).astype(np.int64), axis=0)
+    c = np.floor(xy / cell).astype(np.int64)
     lo = c.min(axis=0) - 1
     shape = c.max(axis=0) - lo + 2
     grid = np.zeros(tuple(shape), dtype=bool)
@@ -138,8 +157,11 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             j = np.clip(np.searchsorted(other, p[:, o]), 1, max(len(other) - 1, 1))
             dist = np.minimum(np.abs(p[:, o] - other[j - 1]), np.abs(p[:, o] - other[np.minimum(j, len(other) - 1)]))
             off = dist > d
+        cand = p[off & ~along[o]]
+        order = np.argsort(cand[:, a], kind="stable")
+        cand = cand[order]
         peaks = [pk.position for pk in raw[a]
-                 if _reaches_ceiling(p[off & ~along[o]], a, pk.position, frame, params, spacing, ceiling_cells)]
+                 if _reaches_ceiling(cand, a, pk.position, frame, params, spacing, ceiling_cells, cand[:, a])]
         # where no wall surface bounds the seen ceiling (a space seen through an opening,
         # a wall too far to get normals), the ceiling's seen extent bounds the grid
         # (first the top ceiling's extent, then that of every horizontal surface in the
@@ -217,7 +239,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                          line))
     # wall junctions: a cuboid thin in both directions between walls (its faces are hidden
     # inside the walls, so its own index cannot be seen) continues them. Extension of
-    # SPEC.md rule 2, documented in the README of this package.
+    # SPEC.md rule 2 (see the module docstring).
     for (i, j, k), s in list(shapes.items()):
         if s.type == ShapeType.WALL or s.attributes["thin_axis"] != 2:
             continue

@@ -83,9 +83,23 @@ def _area_profile(t: np.ndarray, uv: np.ndarray, edges: np.ndarray, spacing: flo
     if len(t) == 0 or nb <= 0:
         return np.zeros(max(nb, 0))
     b = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, nb - 1)
-    cu = np.floor(uv / spacing).astype(np.int64)
-    key = np.unique(np.column_stack([b, cu]), axis=0)
-    return np.bincount(key[:, 0], minlength=nb).astype(np.float64) * spacing**2
+    key = np.unique(_cell_keys(uv, spacing, b))
+    span = _key_span(uv, spacing)
+    return np.bincount(key // span, minlength=nb).astype(np.float64) * spacing**2
+
+
+def _key_span(uv: np.ndarray, cell: float) -> int:
+    c = np.floor(uv / cell).astype(np.int64)
+    return int((c[:, 0].max() - c[:, 0].min() + 1) * (c[:, 1].max() - c[:, 1].min() + 1))
+
+
+def _cell_keys(uv: np.ndarray, cell: float, group: np.ndarray) -> np.ndarray:
+    """One int64 per (group, cell) pair: ``group * span + cell index`` (1D keys make
+    ``np.unique`` fast). ``uv`` (n, 2) metres, ``group`` (n,) int ≥ 0."""
+    c = np.floor(uv / cell).astype(np.int64)
+    c -= c.min(axis=0)
+    w = int(c[:, 1].max()) + 1
+    return group.astype(np.int64) * _key_span(uv, cell) + c[:, 0] * w + c[:, 1]
 
 
 def histogram_peaks(t: np.ndarray, uv: np.ndarray, params: ManhattanParams, spacing: float,
@@ -148,17 +162,18 @@ def detect_levels(xyz_h: np.ndarray, params: ManhattanParams, spacing: float) ->
         return []
     buf = max(params.shape_buffer, 1.5 * params.bin_size)
     cell = params.level_cell
-    cells_of = []
-    for p in peaks:
-        near = np.abs(xyz_h[:, 2] - p.position) <= buf
-        cells_of.append({tuple(c) for c in np.unique(np.floor(xyz_h[near, :2] / cell).astype(np.int64), axis=0)})
+    c = np.floor(xyz_h[:, :2] / cell).astype(np.int64)
+    c -= c.min(axis=0)
+    keys = c[:, 0] * (int(c[:, 1].max()) + 1) + c[:, 1]
+    cells_of = [np.unique(keys[np.abs(xyz_h[:, 2] - p.position) <= buf]) for p in peaks]
     levels = []
     for i, p in enumerate(peaks):
         mine = cells_of[i]
-        above = set().union(*cells_of[i + 1:]) if i + 1 < len(peaks) else set()
-        below = set().union(*cells_of[:i]) if i > 0 else set()
+        above = np.concatenate(cells_of[i + 1:]) if i + 1 < len(peaks) else np.zeros(0, np.int64)
+        below = np.concatenate(cells_of[:i]) if i > 0 else np.zeros(0, np.int64)
         n = max(len(mine), 1)
-        levels.append(Level(p.position, p.area, len(mine - above) / n, len(mine - below) / n))
+        levels.append(Level(p.position, p.area, float(np.sum(~np.isin(mine, above))) / n,
+                            float(np.sum(~np.isin(mine, below))) / n))
     return levels
 
 

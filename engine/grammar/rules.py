@@ -37,6 +37,12 @@ DEFAULT_TAU = 0.3
 """τ used when a model does not record its own (``provenance.parameters['tau']``)."""
 
 _SPACE_TYPES = (ShapeType.INTERIOR, ShapeType.EXTERIOR)
+_OPPOSITE = -0.99
+"""Two faces face each other across a wall or door when their normals' dot product is
+below this (antiparallel within ~8°)."""
+_CORRIDOR_ASPECT, _CORRIDOR_WIDTH = 3.0, 2.5
+"""Naming defaults when the model records no ``corridor_aspect`` / ``corridor_max_width``
+(see ManhattanParams)."""
 
 
 # --------------------------------------------------------------------------- rule 2
@@ -308,7 +314,7 @@ def space_relations(parts: list[Shape], top: dict, doors: list[Shape],
         fl = list(faces)
         for i in range(len(fl)):
             for j in range(i + 1, len(fl)):
-                if normals[fl[i]] @ normals[fl[j]] > -0.99:
+                if normals[fl[i]] @ normals[fl[j]] > _OPPOSITE:
                     continue
                 for L in faces[fl[i]]:
                     for R in faces[fl[j]]:
@@ -328,7 +334,7 @@ def space_relations(parts: list[Shape], top: dict, doors: list[Shape],
             fl = list(faces)
             for i in range(len(fl)):
                 for j in range(i + 1, len(fl)):
-                    if d.geometry.face_normal(fl[i]) @ d.geometry.face_normal(fl[j]) > -0.99:
+                    if d.geometry.face_normal(fl[i]) @ d.geometry.face_normal(fl[j]) > _OPPOSITE:
                         continue
                     for L in faces[fl[i]]:
                         for R in faces[fl[j]]:
@@ -364,7 +370,9 @@ def derive_topology(model: BuildingModel, tau: Optional[float] = None) -> Buildi
         walls = [m for m in merged if m.type == ShapeType.WALL]
         walls, doors = _attach_doors(walls, doors)
         merged = [m for m in merged if m.type != ShapeType.WALL] + walls
-        merged = _name(merged)
+        prm = model.provenance.parameters if model.provenance else {}
+        merged = _name(merged, float(prm.get("corridor_aspect", _CORRIDOR_ASPECT)),
+                       float(prm.get("corridor_max_width", _CORRIDOR_WIDTH)))
         top = {p.id: p.parent or p.id for p in parts}
         rel = rel_parts + space_relations(parts, top, doors, touching)
         shapes = parts + merged + doors + others
@@ -379,7 +387,7 @@ def derive_topology(model: BuildingModel, tau: Optional[float] = None) -> Buildi
     return model.with_(shapes=tuple(shapes), relations=tuple(dict.fromkeys(rel)))
 
 
-def _name(merged: list[Shape], corridor_aspect: float = 3.0, corridor_width: float = 2.5) -> list[Shape]:
+def _name(merged: list[Shape], corridor_aspect: float, corridor_width: float) -> list[Shape]:
     """Names: "Room n" / "Corridor" (long and narrow) / "Wall n" / "Exterior n", numbered by
     storey then position."""
     def key(s):
