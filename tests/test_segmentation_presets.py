@@ -58,3 +58,16 @@ def test_office_storey_and_faces():
     with_wall = [f for f in faces if f.wall_plane is not None]
     assert len(with_wall) >= 0.8 * len(faces)
     assert all(0.0 <= f.coverage <= 1.0 for f in faces)
+
+
+def test_rooms_of_several_ceiling_heights_get_matching_cell_levels():
+    scene, res = _run("house_multi_height", "tls")
+    (st,) = res.storeys
+    assert abs(st.ceiling_z - 3.2) < 0.03  # the storey reaches the highest ceiling
+    levels = ceiling_levels(res.planes, st)
+    truth = sorted({round(s.bounds[1][2], 2) for s in scene.truth.spaces})
+    assert len(levels) == len(truth)
+    assert np.allclose(levels, truth, atol=0.03)
+    # every room is covered by the cells of each layer below its ceiling
+    cov = room_coverage(res.cells, scene.truth, res.transform, 0)
+    assert all(share >= 0.98 and dist <= 0.05 for _, share, dist in cov)

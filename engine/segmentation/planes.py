@@ -397,7 +397,8 @@ def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
         Point clusters from :func:`classify_points` (computed when None).
     storeys : sequence of Storey, optional
         Extract each storey separately (points within ``storey_margin`` of
-        [floor_z, ceiling_z]); planes carry the storey index. None: the whole cloud is one
+        [floor_z, ceiling_z], never past half-way to the next storey); planes carry the
+        storey index. None: the whole cloud is one
         storey (index -1).
     rng : numpy Generator, int or None
     progress, should_stop : callables (see :class:`engine.progress.Progress`)
@@ -423,8 +424,7 @@ def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
         labels = classify_points(cloud, ClassifyParams(params.angle_tolerance))
     xyz = cloud.xyz
     nrm = cloud.normals.astype(np.float64)
-    ranges = ([(-1, -np.inf, np.inf)] if not storeys else
-              [(s.index, s.floor_z - storey_margin, s.ceiling_z + storey_margin) for s in storeys])
+    ranges = [(-1, -np.inf, np.inf)] if not storeys else _storey_ranges(storeys, storey_margin)
     raw = []  # (normal, offset, support, kind, storey, band)
     jobs = []
     bands = {}
@@ -465,6 +465,21 @@ def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
     log.info("%s: %d planes after refinement (%d walls)", name, len(planes),
              sum(pl.kind == "wall" for pl in planes))
     return planes
+
+
+def _storey_ranges(storeys: Sequence[Storey], margin: float):
+    """(index, z0, z1) of each storey: ``margin`` beyond its floor and ceiling, but never past
+    half-way to the neighbouring storey (the slab between two storeys is split)."""
+    st = sorted(storeys, key=lambda s: s.floor_z)
+    out = []
+    for k, s in enumerate(st):
+        z0, z1 = s.floor_z - margin, s.ceiling_z + margin
+        if k > 0:
+            z0 = max(z0, 0.5 * (st[k - 1].ceiling_z + s.floor_z))
+        if k + 1 < len(st):
+            z1 = min(z1, 0.5 * (s.ceiling_z + st[k + 1].floor_z))
+        out.append((s.index, z0, z1))
+    return out
 
 
 def _assign_rest(raw, xyz, nrm, labels, ranges, params: PlaneParams):

@@ -19,8 +19,9 @@ Method
    floor must lie below a scanner and a ceiling above one (a tie-breaker for real scans).
 4. Pairing: floors in ascending order; floors less than ``min_storey_height`` above the
    previous kept floor join its storey (the larger-area one wins); a storey's ceiling is
-   the largest-area ceiling layer at least ``min_storey_height`` above its floor and below
-   the next storey's floor.
+   the highest ceiling layer at least ``min_storey_height`` above its floor and below the
+   next storey's floor (rooms of several heights: the storey reaches the highest; the
+   lower ceilings are in :func:`detect_layers` and become cell levels).
 
 Departure from SPEC.md: the spec only says "peaks of the z histogram"; steps 2–4 are what
 makes it work on real rooms where furniture tops outnumber the floor.
@@ -174,8 +175,7 @@ def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
     list of Storey
         Ascending; ``index`` 0, 1, …; ``floor_z``/``ceiling_z`` metres in the aligned frame;
         ``elevation`` = ``floor_z``. For rooms of several ceiling heights in one storey,
-        ``ceiling_z`` is the height of the largest ceiling layer (use
-        :func:`detect_layers` for all of them).
+        ``ceiling_z`` is the highest ceiling layer (use :func:`detect_layers` for all).
 
     Raises
     ------
@@ -207,7 +207,7 @@ def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
         if not cand:
             log.warning("%s: floor at z = %.3f m has no ceiling layer above it; skipped", name, floor.z)
             continue
-        ceil = max(cand, key=lambda L: L.area)
+        ceil = max(cand, key=lambda L: L.z)
         k = len(storeys)
         storeys.append(Storey(index=k, floor_z=float(floor.z), ceiling_z=float(ceil.z),
                               name=f"Storey {k}", elevation=float(floor.z)))
