@@ -173,3 +173,26 @@ def test_preprocess_can_be_cancelled():
 
     with pytest.raises(Cancelled):
         preprocess(cloud, should_stop=stop)
+
+
+def test_segment_command_writes_ply_and_json(tmp_path):
+    import argparse
+    import json
+    import os
+
+    from engine.io import read_point_cloud
+    from engine.segmentation.cli import add_segment
+
+    parser = argparse.ArgumentParser()
+    add_segment(parser.add_subparsers())
+    data = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+    args = parser.parse_args(["segment", os.path.join(data, "room_scan1.pcd"), str(tmp_path / "missing.ply"),
+                              "-o", str(tmp_path)])
+    args.quiet, args.json = True, False
+    assert args.func(args) == 1  # the missing file fails, the scan is still written
+    rep = json.loads((tmp_path / "room_scan1_segmentation.json").read_text())
+    assert len(rep["storeys"]) == 1 and rep["cells"]["summary"]["cells"] >= 1
+    assert any(p["kind"] == "wall" for p in rep["planes"])
+    back = read_point_cloud(str(tmp_path / "room_scan1_segmented.ply"))
+    assert len(back) == rep["working_points"]
+    assert set(back.fields) >= {"segment_class", "plane"}

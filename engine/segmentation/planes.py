@@ -124,7 +124,7 @@ class Plane:
 
     def to_dict(self) -> dict:
         return {"id": self.id, "kind": self.kind, "normal": [float(v) for v in self.normal],
-                "offset": float(self.offset), "points": int(len(self.support)), "storey": self.storey,
+                "offset": float(self.offset), "points": int(len(self.support)), "storey": int(self.storey),
                 "rms": float(self.rms), "segment": self.segment.tolist(),
                 "z_range": [float(v) for v in self.z_range], "area": float(self.area)}
 
@@ -168,7 +168,7 @@ def _finish(pid: int, kind: str, normal, offset, support, xyz, storey, band) -> 
     else:
         area = 0.0
     return Plane(id=pid, kind=kind, normal=normal, offset=float(offset), support=np.asarray(support, np.int64),
-                 storey=storey, rms=float(np.sqrt(np.mean(res ** 2))) if len(res) else 0.0, band=float(band),
+                 storey=int(storey), rms=float(np.sqrt(np.mean(res ** 2))) if len(res) else 0.0, band=float(band),
                  segment=seg, z_range=np.array([pts[:, 2].min(), pts[:, 2].max()]), area=float(area))
 
 
