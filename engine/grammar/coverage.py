@@ -33,7 +33,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-__all__ = ["cell_heights", "alpha_triangles", "alpha_area", "alpha_geometry", "thin_points", "Face", "CellSet",
+__all__ = ["adaptive_alpha", "cell_heights", "alpha_triangles", "alpha_area", "alpha_geometry", "thin_points", "Face", "CellSet",
            "CellCoverage", "measure_coverage", "cellset_from_polygons"]
 
 log = logging.getLogger(__name__)
@@ -466,6 +466,20 @@ def _layer_height(z: np.ndarray) -> float:
     return float(np.median(near)) if len(near) else float(np.median(z))
 
 
+def adaptive_alpha(xy: np.ndarray, r_alpha: float, factor: float, sample: int = 20_000) -> float:
+    """``max(r_alpha, factor × median nearest-neighbour distance of xy)`` (metres).
+
+    ``xy`` : (n, 2) float64 metres; a fixed sample of at most ``sample`` points is used."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if factor <= 0 or len(xy) < 3:
+        return float(r_alpha)
+    from scipy.spatial import cKDTree
+
+    q = xy[:: max(1, len(xy) // sample)]
+    d, _ = cKDTree(xy).query(q, k=2)
+    return float(max(r_alpha, factor * np.median(d[:, 1])))
+
+
 def _face_band(f: Face, zr: np.ndarray, ceiling_z: np.ndarray, band: float) -> tuple:
     """(z0, z1) of the part of face ``f`` whose wall coverage is measured, metres."""
     cells = [f.a] if f.b < 0 else [f.a, f.b]
@@ -480,7 +494,8 @@ def _face_band(f: Face, zr: np.ndarray, ceiling_z: np.ndarray, band: float) -> t
 
 def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.ndarray, *,
                      shape_buffer: float, r_alpha: float, thin: float, min_wall_coverage: float = 0.2,
-                     wall_band: float = 0.6, should_check=None) -> CellCoverage:
+                     wall_band: float = 0.6, alpha_spacing_factor: float = 7.0,
+                     should_check=None) -> CellCoverage:
     """Measure the per-cell and per-face coverage once (see the module doc).
 
     Parameters
@@ -499,6 +514,10 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
         the ceiling over it (metres; the higher of the two cells' ceiling heights, the
         top of the cells where no ceiling is seen): walls reach the ceiling, furniture
         rarely does, so cupboard sides do not read as walls. <= 0: the whole face.
+    alpha_spacing_factor : r_α is raised to this many median nearest-neighbour distances of
+        the thinned ceiling points when that is larger (sparse scans: a fixed r_α leaves
+        the gaps of a sparse sampling uncovered; walls are kept apart by the blocking
+        faces, not by a small r_α). 0: r_α as given.
     should_check : optional callable polled between faces (cancellation).
 
     Returns
@@ -516,6 +535,7 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
     vw = np.asarray(xyz_wall, dtype=np.float64).reshape(-1, 3)
     hw = thin_points(hw, thin)
     vw = thin_points(vw, thin)
+    r_alpha = adaptive_alpha(hw[:, :2], r_alpha, alpha_spacing_factor)
 
     # --- ceilings and floors: which cell holds each horizontal point
     hc, upper, ceiling_z, floor_z = cell_heights(cells, hw)

@@ -82,6 +82,9 @@ class GenericParams:
     coverage is measured near known faces, so the looser test admits little clutter)."""
     min_wall_coverage: float = 0.2
     """A cell face whose wall coverage reaches this share of its area is a seen wall."""
+    alpha_spacing_factor: float = 7.0
+    """r_α is raised to this many median point spacings of the thinned ceiling points when
+    that is larger (sparse scans)."""
     wall_band: float = 0.6
     """Wall coverage is measured in this band under the ceiling (walls reach the ceiling,
     furniture rarely does), metres; 0: the whole face."""
@@ -550,7 +553,7 @@ def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = Non
         cov = measure_coverage(cells, xyz[wmask], xyz[hmask],
                                shape_buffer=params.shape_buffer, r_alpha=params.r_alpha,
                                thin=params.coverage_grid, min_wall_coverage=params.min_wall_coverage,
-                               wall_band=params.wall_band,
+                               wall_band=params.wall_band, alpha_spacing_factor=params.alpha_spacing_factor,
                                should_check=p.check)
         t_cov += time.perf_counter() - t1
         t1 = time.perf_counter()

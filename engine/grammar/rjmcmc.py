@@ -42,6 +42,10 @@ Departures from SPEC.md (recorded here as asked):
 * ``P_vert`` credits a boundary face to a space only where the space's cell on that face
   is covered: a wall is seen from under the room's ceiling. Otherwise taking in the wall
   cell between two rooms lets one room claim the other room's wall surface.
+* After the search, untyped covered cells next to exactly one space join it
+  (``RjmcmcParams.absorb_covered``): ``P_L`` multiplies coverage *ratios*, so a partly
+  occluded cell at a room's edge (ceiling coverage 0.5–0.9) lowers the score although it
+  lies under the room's ceiling; the returned ``log_posterior`` is that of the final model.
 * The chain starts from a greedy best-improvement ascent from the empty model
   (``RjmcmcParams.greedy_start``), and after the chain, a greedy *polish* applies
 the best strictly improving move until none improves (``RjmcmcParams.polish``). The
@@ -62,7 +66,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import Scope
 from ..progress import Progress
-from .coverage import CellCoverage, CellSet, _face_band, alpha_area, alpha_geometry, cell_heights, thin_points
+from .coverage import CellCoverage, CellSet, _face_band, adaptive_alpha, alpha_area, alpha_geometry, cell_heights, thin_points
 
 __all__ = ["RjmcmcParams", "SearchResult", "SpaceSearch", "search_spaces", "naive_log_posterior",
            "MOVES", "mdl_cost"]
@@ -113,6 +117,9 @@ class RjmcmcParams:
     module doc); False starts from the empty model (or ``initial``) as the thesis does."""
     polish: bool = True
     """Greedy best-improvement moves after the chain (see the module doc)."""
+    absorb_covered: bool = True
+    """After the search, an untyped *covered* cell adjacent to exactly one space joins it
+    (repeated until nothing changes): it lies under that room's ceiling. See the module doc."""
     trace_every: int = 50
     """Record (iteration, log-score, spaces) in the trace every this many iterations."""
 
@@ -378,6 +385,24 @@ class SpaceSearch:
             cur = top[0]
             moves += 1
 
+    def absorb_covered(self) -> int:
+        """Add every untyped covered cell adjacent to exactly one space to it (repeatedly).
+        Returns the number of cells added."""
+        added, changed = 0, True
+        while changed:
+            changed = False
+            for c in range(self.n):
+                if self.space_of[c] >= 0 or not self.covered[c]:
+                    continue
+                adj = self.adjacent_spaces(c)
+                if len(adj) != 1:
+                    continue
+                sid = adj.pop()
+                self.apply([sid], [self.spaces[sid] | {c}])
+                added += 1
+                changed = True
+        return added
+
     def all_moves(self):
         """Every applicable move of the current state (for the greedy polish)."""
         for c in range(self.n):
@@ -481,12 +506,19 @@ def search_spaces(cells: CellSet, coverage: CellCoverage, params: RjmcmcParams =
         cur = st.score
         if cur > best_score + 1e-12:
             best, best_score = st.model(), cur
+    absorbed = 0
+    if params.absorb_covered and best:
+        st.set_model(best)
+        absorbed = st.absorb_covered()
+        if absorbed:
+            best, best_score = st.model(), st.score
     n_prop = sum(proposed.values())
     n_acc = sum(accepted.values())
     rate = n_acc / n_prop if n_prop else 0.0
     seconds = time.perf_counter() - t0
     trace = {"iteration": tr_it, "score": tr_score, "spaces": tr_n, "proposed": proposed,
              "accepted": accepted, "best_iteration": best_it, "polish_moves": polish_moves, "greedy_moves": greedy_moves,
+             "absorbed_cells": absorbed,
              "seconds": seconds, "cells": n, "parameters": asdict(params)}
     log.info("rjMCMC: %d cells, %d iterations, acceptance %.2f, %d spaces, log P = %.4f (%.2f s)",
              n, n_iter, rate, len(best), best_score, seconds)
@@ -498,7 +530,8 @@ def search_spaces(cells: CellSet, coverage: CellCoverage, params: RjmcmcParams =
 def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wall: np.ndarray,
                         xyz_horizontal: np.ndarray, params: RjmcmcParams = RjmcmcParams(), *,
                         shape_buffer: float, r_alpha: float, thin: float,
-                        min_wall_coverage: float = 0.2, wall_band: float = 0.6) -> float:
+                        min_wall_coverage: float = 0.2, wall_band: float = 0.6,
+                        alpha_spacing_factor: float = 7.0) -> float:
     """The thesis's full re-score of a model from the points (reference for tests/benchmark).
 
     Every call thins the points, builds the alpha shapes of all ceiling points and of every
@@ -511,7 +544,7 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
     cells : CellSet
     xyz_wall, xyz_horizontal : (n, 3) / (m, 3) float64 — wall and floor/ceiling points, metres.
     params : RjmcmcParams
-    shape_buffer, r_alpha, thin, min_wall_coverage, wall_band : as for
+    shape_buffer, r_alpha, thin, min_wall_coverage, wall_band, alpha_spacing_factor : as for
         :func:`~.coverage.measure_coverage`.
 
     Returns
@@ -522,6 +555,7 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
 
     hw = thin_points(np.asarray(xyz_horizontal, float).reshape(-1, 3), thin)
     vw = thin_points(np.asarray(xyz_wall, float).reshape(-1, 3), thin)
+    r_alpha = adaptive_alpha(hw[:, :2], r_alpha, alpha_spacing_factor)
     zr = cells.z_range
     _, upper, ceiling_z, _ = cell_heights(cells, hw)
     ceil = hw[upper]
