@@ -1,0 +1,270 @@
+"""Build the Blender extension zip and fetch the wheels its manifest lists.
+
+    python scripts/extension.py build [--out dist] [--no-wheels]   # the zip, like Blender builds it
+    python scripts/extension.py wheels [--platform linux-x64 ...]    # download the listed wheels
+    python scripts/extension.py lock [--platform ...]                # resolve versions -> wheel list
+
+With a Blender binary the same zip comes from
+``blender --command extension build --source-dir . --output-dir dist`` (add
+``--split-platforms`` for one zip per platform, each with only its wheels) and is checked by
+``blender --command extension validate dist/<zip>``.
+
+``build`` packs every file of the repository root except the manifest's
+``[build] paths_exclude_pattern`` (gitignore syntax, as Blender reads it), checks the wheels
+the manifest lists are present (``make wheels`` first) and writes
+``<out>/<id>-<version>.zip``. ``--no-wheels`` writes a zip whose manifest lists no wheels: it
+installs into a Blender whose Python already has the packages (the bpy-module environment
+of the tests).
+
+``wheels`` downloads exactly the files the manifest lists (name, version and platform tag
+read from each wheel's file name) with ``pip download --no-deps --only-binary=:all:`` for
+CPython 3.11, Blender 4.2–4.5's Python; nothing is committed (``wheels/`` is git-ignored).
+
+``lock`` resolves the engine's requirements for each platform with
+``pip install --dry-run --report`` and prints the ``wheels = [...]`` list for the manifest,
+leaving out what Blender itself ships (numpy and friends).
+"""
+from __future__ import annotations
+
+import argparse
+import fnmatch
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import tomllib
+import zipfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+MANIFEST = "blender_manifest.toml"
+PYTHON_VERSION = "3.11"
+"""Python of Blender 4.2–4.5 (the wheels' ``cp311`` tag)."""
+REQUIREMENTS = ["scipy>=1.11", "open3d>=0.18", "shapely>=2.0", "networkx>=3.0", "ifcopenshell>=0.8",
+                "trimesh>=4.0", "laspy>=2.5", "lazrs", "pye57>=0.4", "numpy>=1.26,<2"]
+"""What the engine needs (the ranges of requirements.txt). numpy is constrained to what
+Blender 4.2–4.5 ship (1.26) so the resolver picks builds compatible with it; numpy itself is
+never bundled."""
+BLENDER_SHIPS = {"numpy", "requests", "certifi", "idna", "charset-normalizer", "urllib3", "cython",
+                 "zstandard"}
+"""Packages Blender's own Python already has; never bundled (bundling numpy breaks Blender)."""
+PLATFORM_TAGS = {
+    "linux-x64": ["manylinux_2_35_x86_64", "manylinux_2_34_x86_64", "manylinux_2_31_x86_64",
+                  "manylinux_2_28_x86_64", "manylinux_2_27_x86_64", "manylinux_2_24_x86_64",
+                  "manylinux_2_17_x86_64", "manylinux2014_x86_64", "linux_x86_64"],
+    "windows-x64": ["win_amd64"],
+    "macos-arm64": ["macosx_14_0_arm64", "macosx_13_0_arm64", "macosx_12_0_arm64", "macosx_11_0_arm64",
+                    "macosx_11_0_universal2", "macosx_10_9_universal2"],
+}
+"""pip ``--platform`` tags tried for each Blender platform name."""
+ALWAYS_EXCLUDED_SUFFIXES = (".pyc", ".pyo")
+
+
+# --------------------------------------------------------------------------- manifest
+def read_manifest(root: str = ROOT) -> dict:
+    with open(os.path.join(root, MANIFEST), "rb") as f:
+        return tomllib.load(f)
+
+
+def manifest_without_wheels(text: str) -> str:
+    """The manifest text with its ``wheels = [...]`` and ``platforms`` entries removed."""
+    text = re.sub(r"(?ms)^wheels\s*=\s*\[.*?\]\s*\n", "", text)
+    return re.sub(r"(?m)^platforms\s*=\s*\[.*?\]\s*\n", "", text)
+
+
+# --------------------------------------------------------------------------- exclusion
+def is_excluded(rel_path: str, is_dir: bool, patterns) -> bool:
+    """Gitignore-style matching of Blender's ``paths_exclude_pattern``.
+
+    ``rel_path`` is POSIX and relative to the root. A trailing ``/`` matches directories
+    only; a leading ``/`` anchors the pattern at the root; a pattern with no other ``/`` is
+    matched against the last path component at any depth, otherwise against the whole path.
+    """
+    name = rel_path.rsplit("/", 1)[-1]
+    for pattern in patterns:
+        dir_only = pattern.endswith("/")
+        p = pattern.rstrip("/")
+        if dir_only and not is_dir:
+            continue
+        if p.startswith("/"):
+            if fnmatch.fnmatchcase(rel_path, p[1:]):
+                return True
+        elif "/" in p:
+            if fnmatch.fnmatchcase(rel_path, p) or fnmatch.fnmatchcase(rel_path, "*/" + p):
+                return True
+        elif fnmatch.fnmatchcase(name, p):
+            return True
+    return False
+
+
+def package_files(root: str = ROOT, patterns=None) -> list[str]:
+    """Relative POSIX paths of the files the extension zip holds, sorted."""
+    if patterns is None:
+        patterns = read_manifest(root).get("build", {}).get("paths_exclude_pattern", [])
+    out = []
+    for dirpath, dirnames, filenames in os.walk(root):
+        rel_dir = os.path.relpath(dirpath, root).replace(os.sep, "/")
+        rel_dir = "" if rel_dir == "." else rel_dir + "/"
+        dirnames[:] = sorted(d for d in dirnames if not is_excluded(rel_dir + d, True, patterns))
+        for f in sorted(filenames):
+            rel = rel_dir + f
+            if f.endswith(ALWAYS_EXCLUDED_SUFFIXES) or is_excluded(rel, False, patterns):
+                continue
+            out.append(rel)
+    return sorted(out)
+
+
+# --------------------------------------------------------------------------- build
+def build(out_dir: str, *, root: str = ROOT, with_wheels: bool = True, name: str | None = None) -> str:
+    """Write the extension zip and return its path.
+
+    Parameters
+    ----------
+    out_dir : str
+        Folder that receives ``<id>-<version>.zip`` (or ``name``).
+    with_wheels : bool
+        Bundle the wheels the manifest lists (they must be present: ``make wheels``). When
+        False the zip's manifest lists no wheels and no ``wheels/`` folder is packed.
+    """
+    manifest = read_manifest(root)
+    files = package_files(root)
+    wheels = [w.lstrip("./") for w in manifest.get("wheels", [])]
+    manifest_text = open(os.path.join(root, MANIFEST), encoding="utf-8").read()
+    if with_wheels:
+        missing = [w for w in wheels if not os.path.isfile(os.path.join(root, w))]
+        if missing:
+            raise SystemExit(f"{len(missing)} wheel(s) listed in {MANIFEST} are missing, e.g. {missing[0]}; "
+                             "run `make wheels` (or build with --no-wheels)")
+        files = sorted(set(f for f in files if not f.startswith("wheels/")) | set(wheels))
+    else:
+        files = [f for f in files if not f.startswith("wheels/")]
+        manifest_text = manifest_without_wheels(manifest_text)
+    for required in ("__init__.py", MANIFEST):
+        if required not in files:
+            raise SystemExit(f"{required} would not be packed: check paths_exclude_pattern")
+    os.makedirs(out_dir, exist_ok=True)
+    dest = os.path.join(out_dir, name or f"{manifest['id']}-{manifest['version']}.zip")
+    fd, tmp = tempfile.mkstemp(prefix=".ext.", suffix=".zip.part", dir=out_dir)
+    os.close(fd)
+    try:
+        with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as z:
+            for rel in files:
+                if rel == MANIFEST:
+                    z.writestr(rel, manifest_text)
+                elif rel.endswith(".whl"):
+                    z.write(os.path.join(root, rel), rel, compress_type=zipfile.ZIP_STORED)
+                else:
+                    z.write(os.path.join(root, rel), rel)
+        os.replace(tmp, dest)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    return dest
+
+
+# --------------------------------------------------------------------------- wheels
+_WHEEL_RE = re.compile(r"^(?P<name>[^-]+)-(?P<version>[^-]+)(-\d[^-]*)?-(?P<py>[^-]+)-(?P<abi>[^-]+)-(?P<plat>[^-]+)\.whl$")
+
+
+def parse_wheel_name(filename: str) -> dict:
+    """``{name, version, py, abi, plat}`` of a wheel file name (PEP 427)."""
+    m = _WHEEL_RE.match(os.path.basename(filename))
+    if m is None:
+        raise ValueError(f"{filename}: not a wheel file name")
+    return m.groupdict()
+
+
+def download_wheels(root: str = ROOT, platforms=None, pip=None) -> list[str]:
+    """Download the manifest's wheels into ``root/wheels`` (skipping those present)."""
+    pip = pip or [sys.executable, "-m", "pip"]
+    manifest = read_manifest(root)
+    done = []
+    for rel in manifest.get("wheels", []):
+        rel = rel.lstrip("./")
+        w = parse_wheel_name(rel)
+        if platforms and w["plat"] != "any" and not any(
+                w["plat"] in PLATFORM_TAGS.get(p, [p]) or _plat_family(w["plat"]) == p for p in platforms):
+            continue
+        dest = os.path.join(root, os.path.dirname(rel))
+        if os.path.isfile(os.path.join(root, rel)):
+            done.append(rel)
+            continue
+        cmd = [*pip, "download", "--no-deps", "--only-binary=:all:", "--dest", dest,
+               "--python-version", PYTHON_VERSION, "--implementation", "cp"]
+        for plat in w["plat"].split("."):
+            cmd += ["--platform", plat]
+        if w["abi"] != "none":
+            cmd += ["--abi", w["abi"]]
+        cmd.append(f"{w['name']}=={w['version']}")
+        subprocess.run(cmd, check=True)
+        if not os.path.isfile(os.path.join(root, rel)):
+            raise SystemExit(f"pip did not produce {rel}; the manifest entry may be stale (run `lock`)")
+        done.append(rel)
+    return done
+
+
+def _plat_family(plat: str) -> str:
+    if plat.startswith(("manylinux", "linux")):
+        return "linux-x64"
+    if plat.startswith("win"):
+        return "windows-x64"
+    if plat.startswith("macosx") and plat.endswith(("arm64", "universal2")):
+        return "macos-arm64"
+    return plat
+
+
+def lock(platforms, pip=None) -> list[str]:
+    """Resolve :data:`REQUIREMENTS` for each platform (newest versions that fit).
+
+    Returns the sorted ``./wheels/<file>`` entries for the manifest, without the packages
+    in :data:`BLENDER_SHIPS`.
+    """
+    pip = pip or [sys.executable, "-m", "pip"]
+    reqs = list(REQUIREMENTS)
+    entries = set()
+    for platform in platforms:
+        with tempfile.TemporaryDirectory() as tmp:
+            report = os.path.join(tmp, "report.json")
+            cmd = [*pip, "install", "--dry-run", "--ignore-installed", "--quiet", "--report", report,
+                   "--index-url", "https://pypi.org/simple", "--no-cache-dir",
+                   "--only-binary=:all:", "--python-version", PYTHON_VERSION, "--implementation", "cp",
+                   "--target", os.path.join(tmp, "t")]
+            for tag in PLATFORM_TAGS[platform]:
+                cmd += ["--platform", tag]
+            subprocess.run(cmd + reqs, check=True)
+            with open(report) as f:
+                for item in json.load(f)["install"]:
+                    if item["metadata"]["name"].lower().replace("_", "-") in BLENDER_SHIPS:
+                        continue
+                    entries.add("./wheels/" + item["download_info"]["url"].rsplit("/", 1)[1])
+    return sorted(entries)
+
+
+# --------------------------------------------------------------------------- CLI
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="extension.py", description=__doc__.split("\n\n")[0])
+    sub = p.add_subparsers(dest="cmd", required=True)
+    b = sub.add_parser("build", help="write the extension zip")
+    b.add_argument("--out", default=os.path.join(ROOT, "dist"))
+    b.add_argument("--no-wheels", action="store_true", help="a zip without the bundled wheels")
+    w = sub.add_parser("wheels", help="download the wheels the manifest lists")
+    w.add_argument("--platform", action="append", choices=sorted(PLATFORM_TAGS),
+                   help="only this platform's wheels (repeatable; default all)")
+    lk = sub.add_parser("lock", help="print the manifest's wheels list for this environment's versions")
+    lk.add_argument("--platform", action="append", choices=sorted(PLATFORM_TAGS))
+    args = p.parse_args(argv)
+    if args.cmd == "build":
+        print(build(args.out, with_wheels=not args.no_wheels))
+    elif args.cmd == "wheels":
+        files = download_wheels(platforms=args.platform)
+        print(f"{len(files)} wheel(s) in {os.path.join(ROOT, 'wheels')}")
+    else:
+        entries = lock(args.platform or sorted(PLATFORM_TAGS))
+        print("wheels = [\n" + "".join(f'  "{e}",\n' for e in entries) + "]")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
