@@ -1,8 +1,31 @@
 """Preprocessing and space partitioning (SPEC.md §1 and §3.1).
 
-Cleaning and normals (:mod:`.cleaning`), Manhattan alignment (:mod:`.alignment`), storeys
-(:mod:`.storeys`), point clusters (:mod:`.classify`), multi-scale RANSAC planes
-(:mod:`.planes`) and the cell decomposition (:mod:`.cells`).
+Steps (each takes a frozen parameters dataclass from :mod:`.params` and, where the work is
+long, ``progress``/``should_stop``):
+
+* :func:`clean` — non-finite rows, voxel downsampling to a *working cloud* (representative
+  input points, so attributes and truth fields survive; the voxel grows so the working
+  cloud stays ≤ ``max_working_points``), statistical outliers;
+* :func:`estimate_normals` — PCA normals (open3d), facing the scanner when known;
+* :func:`align_manhattan` — axial k-means of the normals + refinement → rotation and the
+  4×4 aligned → input transform;
+* :func:`detect_storeys` — floors and ceilings from horizontal layers (area and
+  above/below contrast rule out furniture);
+* :func:`classify_points` — wall / floor-ceiling / other by the normal (θ = 10°);
+* :func:`extract_planes` — local RANSAC in 4 m tiles with orientation, normal and fill
+  constraints, then global merging until nothing merges;
+* :func:`decompose_cells` — wall segments extended only as far as needed, shapely
+  arrangement, extrusion between ceiling levels → :class:`CellComplex` (cells, shared
+  faces with the wall plane on them and its coverage) for the rjMCMC;
+* :func:`preprocess` — all of the above → :class:`Preprocessed`.
+
+Departures from SPEC.md (details in each module's docstring): alignment refines the
+k-means directions (vertical from floors *and* walls; yaw from the 4φ circular mean);
+storeys use layer area and wall contrast, not the raw histogram peaks; planes are exactly
+vertical/horizontal in the aligned frame, merge below 4° (not θ = 10°: walls meeting at
+6–7° exist), use the median support distance and reject merges that do not fit; the
+inlier band follows the floor's measured noise; coverage uses 10 cm grids instead of alpha
+shapes.
 """
 from .alignment import AlignmentResult, align_manhattan, axial_kmeans, manhattan_residual
 from .classify import CLASS_HORIZONTAL, CLASS_OTHER, CLASS_WALL, classify_points

@@ -521,7 +521,7 @@ def decompose_cells(cloud: PointCloud, planes: Sequence[Plane], storeys: Sequenc
         walls = [pl for pl in sp if is_structural_wall(pl, st, params, ceilings)]
         if not walls:
             raise ReconstructionError(f"{name}: storey {idx} has no wall plane to partition its floor")
-        zin = (xyz[:, 2] >= st.floor_z - 0.1) & (xyz[:, 2] <= st.ceiling_z + 0.1)
+        zin = (xyz[:, 2] >= st.floor_z - _LEVEL_MERGE) & (xyz[:, 2] <= st.ceiling_z + _LEVEL_MERGE)
         if not zin.any():
             raise ReconstructionError(f"{name}: storey {idx} holds no points")
         lo = xyz[zin, :2].min(axis=0) - params.extent_margin

@@ -59,6 +59,10 @@ _MAD_TO_SIGMA = 1.4826
 _MIN_PAIR_SEPARATION = 0.05
 """Two-point wall hypotheses need points at least this far apart in x, y (metres), else
 their direction is noise."""
+_MERGE_BAND_FACTOR = 1.5
+"""A merged plane keeps the union's points within this many bands of the refitted plane."""
+_WIDE_FACTOR = 3.0
+"""The per-plane noise estimate looks at residuals within this many current bands."""
 _MAX_UNBEND = 3
 """At most this many times a bent wall plane is cut to its larger half."""
 _MERGE_SAMPLE = 3000
@@ -193,7 +197,7 @@ def _refine(kind, normal, offset, pts, nrm, params: PlaneParams, band=None):
         ok = _agree(normal, nrm, cos_agree)
         r = pts @ normal - offset
         if not fixed:
-            wide = ok & (np.abs(r) <= 3 * band)
+            wide = ok & (np.abs(r) <= _WIDE_FACTOR * band)
             sigma = _MAD_TO_SIGMA * np.median(np.abs(r[wide])) if wide.any() else 0.0
             band = float(np.clip(params.noise_factor * sigma, params.distance_threshold,
                                  params.max_distance_threshold))
@@ -371,7 +375,7 @@ def _merge_round(planes_raw, xyz, nrm, params: PlaneParams, rng):
         kind = pa[3]
         normal, offset = _fit(kind, xyz[sup])
         band = max(pa[5], pb[5])
-        keep = np.abs(xyz[sup] @ normal - offset) <= band * 1.5
+        keep = np.abs(xyz[sup] @ normal - offset) <= band * _MERGE_BAND_FACTOR
         if keep.mean() < params.merge_keep:
             continue
         sup = sup[keep]
