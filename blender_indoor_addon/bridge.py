@@ -58,6 +58,8 @@ IN_RATIO = "Display ratio"
 IN_RADIUS = "Point radius"
 IN_MATERIAL = "Material"
 IN_SEED = "Seed"
+IN_USE_SECTION = "Section"
+IN_SECTION_Z = "Section height"
 
 # Attribute names Blender reserves on meshes; cloud fields with such names get a prefix.
 _RESERVED = {"position", "material_index", "sharp_face", "sharp_edge", "crease_vert", "crease_edge",
@@ -126,10 +128,12 @@ def points_node_group(created: list | None = None):
 
     Group inputs: Geometry (the point mesh), Display ratio (0–1, share of points drawn,
     chosen at random by point index; the mesh keeps every point), Point radius (metres),
-    Material, Seed. Output: a point cloud with every POINT attribute of the mesh.
+    Material, Seed, Section (bool) and Section height (metres, object frame: with Section
+    on, points above it are not drawn, to look into rooms from above). Output: a point
+    cloud with every POINT attribute of the mesh.
     """
     ng = bpy.data.node_groups.get(POINTS_NODE_GROUP)
-    if ng is not None and ng.bl_idname == "GeometryNodeTree" and _socket(ng, IN_SEED) is not None:
+    if ng is not None and ng.bl_idname == "GeometryNodeTree" and _socket(ng, IN_SECTION_Z) is not None:
         return ng
     ng = bpy.data.node_groups.new(POINTS_NODE_GROUP, "GeometryNodeTree")
     if created is not None:
@@ -147,6 +151,12 @@ def points_node_group(created: list | None = None):
     s = iface.new_socket(IN_SEED, in_out="INPUT", socket_type="NodeSocketInt")
     s.default_value = 0
     s.description = "Seed of the random display subset"
+    s = iface.new_socket(IN_USE_SECTION, in_out="INPUT", socket_type="NodeSocketBool")
+    s.default_value = False
+    s.description = "Hide the points above the section height (look into rooms from above)"
+    s = iface.new_socket(IN_SECTION_Z, in_out="INPUT", socket_type="NodeSocketFloat")
+    s.subtype, s.default_value = "DISTANCE", 2.0
+    s.description = "Height above which points are hidden when Section is on (object frame, metres)"
 
     nodes, links = ng.nodes, ng.links
     gin = nodes.new("NodeGroupInput")
@@ -168,7 +178,25 @@ def points_node_group(created: list | None = None):
     links.new(gin.outputs["Geometry"], inp(to_points, "Mesh"))
     links.new(gin.outputs[IN_RATIO], inp(rnd, "Probability"))
     links.new(gin.outputs[IN_SEED], inp(rnd, "Seed"))
-    links.new(out(rnd, "Value_003"), inp(to_points, "Selection"))
+    # selection = random(ratio) AND (NOT section OR z <= section height)
+    pos = nodes.new("GeometryNodeInputPosition")
+    sep = nodes.new("ShaderNodeSeparateXYZ")
+    below = nodes.new("FunctionNodeCompare")
+    below.data_type, below.operation = "FLOAT", "LESS_EQUAL"
+    keep = nodes.new("FunctionNodeBooleanMath")
+    keep.operation = "IMPLY"  # section -> below
+    both = nodes.new("FunctionNodeBooleanMath")
+    both.operation = "AND"
+    for i, node in enumerate((pos, sep, below, keep, both)):
+        node.location = (220 * i - 660, -300)
+    links.new(pos.outputs["Position"], sep.inputs[0])
+    links.new(sep.outputs["Z"], inp(below, "A"))
+    links.new(gin.outputs[IN_SECTION_Z], inp(below, "B"))
+    links.new(gin.outputs[IN_USE_SECTION], keep.inputs[0])
+    links.new(below.outputs["Result"], keep.inputs[1])
+    links.new(out(rnd, "Value_003"), both.inputs[0])
+    links.new(keep.outputs[0], both.inputs[1])
+    links.new(both.outputs[0], inp(to_points, "Selection"))
     links.new(gin.outputs[IN_RADIUS], inp(to_points, "Radius"))
     links.new(to_points.outputs["Points"], inp(set_mat, "Geometry"))
     links.new(gin.outputs[IN_MATERIAL], inp(set_mat, "Material"))
@@ -349,8 +377,13 @@ def point_cloud_to_object(cloud, name: str | None = None, *, collection: str = S
 
 
 def set_display(obj, *, display_ratio: float | None = None, point_radius: float | None = None,
-                seed: int | None = None, material=None) -> None:
-    """Change how a point mesh is drawn (its "Indoor Points" modifier inputs)."""
+                seed: int | None = None, material=None, section: bool | None = None,
+                section_z: float | None = None) -> None:
+    """Change how a point mesh is drawn (its "Indoor Points" modifier inputs).
+
+    ``section_z`` is in metres in the object frame (offset removed); ``section`` turns the
+    cut on or off. Arguments left at None keep their current value.
+    """
     mod = obj.modifiers.get(POINTS_MODIFIER)
     if mod is None or mod.node_group is None:
         raise ValueError(f"{obj.name} is not a point mesh made by the Indoor add-on")
@@ -358,7 +391,9 @@ def set_display(obj, *, display_ratio: float | None = None, point_radius: float 
     values = {IN_RATIO: None if display_ratio is None else float(min(max(display_ratio, 0.0), 1.0)),
               IN_RADIUS: None if point_radius is None else float(point_radius),
               IN_SEED: None if seed is None else int(seed),
-              IN_MATERIAL: material}
+              IN_MATERIAL: material,
+              IN_USE_SECTION: None if section is None else bool(section),
+              IN_SECTION_Z: None if section_z is None else float(section_z)}
     for sock_name, value in values.items():
         if value is not None:
             mod[_socket(ng, sock_name).identifier] = value
@@ -370,7 +405,8 @@ def display_settings(obj) -> dict:
     mod = obj.modifiers.get(POINTS_MODIFIER)
     if mod is None or mod.node_group is None:
         return {}
-    return {n: mod[_socket(mod.node_group, n).identifier] for n in (IN_RATIO, IN_RADIUS, IN_SEED)}
+    return {n: mod[_socket(mod.node_group, n).identifier]
+            for n in (IN_RATIO, IN_RADIUS, IN_SEED, IN_USE_SECTION, IN_SECTION_Z)}
 
 
 def input_identifier(obj, name: str) -> str | None:

@@ -40,7 +40,7 @@ class INDOOR_PT_import_scan(_IndoorPanel, bpy.types.Panel):
         if offset is not None and any(offset):
             box.label(text="Offset  " + "  ".join(f"{v:.3f}" for v in offset) + " m")
         mod = obj.modifiers.get(bridge.POINTS_MODIFIER)
-        for name in (bridge.IN_RATIO, bridge.IN_RADIUS):
+        for name in (bridge.IN_RATIO, bridge.IN_RADIUS, bridge.IN_USE_SECTION, bridge.IN_SECTION_Z):
             ident = bridge.input_identifier(obj, name)
             if ident is not None:
                 box.prop(mod, f'["{ident}"]', text=name)

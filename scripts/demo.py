@@ -66,6 +66,8 @@ def parse_args(argv):
                         "draws Geometry Nodes point clouds in one colour")
     p.add_argument("--resolution", type=int, default=900, help="height of the preview, pixels")
     p.add_argument("--point-radius", type=float, default=0.01, help="drawn point radius, metres")
+    p.add_argument("--section-drop", type=float, default=0.2,
+                   help="the previews hide points above this share of the room height below its top")
     p.add_argument("--preview-point-radius", type=float, default=0.02,
                    help="drawn point radius in the preview, metres")
     return p.parse_args(argv)
@@ -140,7 +142,8 @@ def _robust_bounds(obj):
 
 
 def stage_render(state):
-    """Workbench previews: top view cut below the ceiling, oblique view; joined side by side."""
+    """Previews (Cycles CPU or Workbench): top view and oblique view, both with the points above
+    a section height hidden so the room is seen from inside; joined side by side."""
     import bpy
     import numpy as np
 
@@ -191,8 +194,8 @@ def stage_render(state):
     cam_top.data.type = "ORTHO"
     cam_top.location = (centre[0], centre[1], hi[2] + 5.0)
     cam_top.rotation_euler = (0.0, 0.0, 0.0)
-    cut_z = hi[2] - 0.25 * size[2]
-    cam_top.data.clip_start = cam_top.location.z - cut_z
+    cut_z = hi[2] - args.section_drop * size[2]
+    bridge.set_display(obj, section=True, section_z=cut_z)  # look into the room: no ceiling
     cam_top.data.clip_end = cam_top.location.z - lo[2] + 5.0
     aspect_top = size[0] / max(size[1], 1e-6)
     cam_top.data.ortho_scale = 1.08 * max(size[0], size[1])
@@ -257,8 +260,8 @@ def _join_images(paths, dest, atomic_path):
             bpy.data.images.remove(im)
 
 
-STAGES = [("setup", stage_setup), ("import", stage_import), ("save_blend", stage_save_blend),
-          ("render", stage_render)]
+STAGES = [("setup", stage_setup), ("import", stage_import), ("render", stage_render),
+          ("save_blend", stage_save_blend)]
 """(name, function) in order; each returns a JSON-ready dict stored under its name."""
 
 

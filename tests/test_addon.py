@@ -178,6 +178,22 @@ def test_display_ratio_subsamples_drawing_not_data(scene, tmp_path, rng):
     assert len(obj.data.vertices) == n
 
 
+def test_section_hides_points_above_height_only_when_on(scene, addon):
+    eng = bu.engine_module()
+    z = np.repeat(np.arange(10) * 0.3, 100)  # 100 points at each of 0.0, 0.3, ..., 2.7 m
+    xyz = np.column_stack([np.tile(np.arange(100) * 0.01, 10), np.zeros(1000), z])
+    obj = addon.bridge.point_cloud_to_object(eng.PointCloud(xyz=xyz), name="sec")
+    assert _evaluated_point_count(obj) == 1000
+    addon.bridge.set_display(obj, section_z=1.0)  # height set, section still off
+    assert _evaluated_point_count(obj) == 1000
+    addon.bridge.set_display(obj, section=True)
+    assert _evaluated_point_count(obj) == 400  # z = 0.0, 0.3, 0.6, 0.9
+    addon.bridge.set_display(obj, display_ratio=0.5, section_z=2.0)
+    drawn = _evaluated_point_count(obj)
+    assert abs(drawn - 350) < 5 * np.sqrt(700 * 0.25)
+    assert len(obj.data.vertices) == 1000
+
+
 def test_second_import_reuses_scan_collection_and_node_group(scene, tmp_path, rng):
     for name in ("a", "b"):
         bu.write_binary_ply(str(tmp_path / f"{name}.ply"), rng.uniform(0, 5, (100, 3)))
