@@ -237,3 +237,21 @@ def test_bad_input_and_cancel(office_tls):
         reconstruct_grammar(flat)
     with pytest.raises(Cancelled):
         reconstruct_manhattan(sc.cloud.subset(slice(0, 20000)), should_stop=lambda: True)
+
+
+def test_progress_and_same_seed_same_model(office_tls):
+    sc, _ = office_tls
+    sub = sc.cloud.subset(np.random.default_rng(1).random(sc.cloud.n) < 0.4)
+    seen = []
+    a = reconstruct_manhattan(sub, rng=7, progress=lambda f, msg: seen.append((f, msg)))
+    b = reconstruct_manhattan(sub, rng=7)
+    assert seen and seen[-1][0] == pytest.approx(1.0)
+    assert all(f2 >= f1 for (f1, _), (f2, _) in zip(seen, seen[1:]))
+
+    def strip(m):
+        d = m.to_dict()
+        d["provenance"]["timings"] = {}
+        return json.dumps(d, sort_keys=True)
+
+    assert strip(a) == strip(b)
+    assert len(a.spaces) == 8
