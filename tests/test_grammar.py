@@ -255,3 +255,21 @@ def test_progress_and_same_seed_same_model(office_tls):
 
     assert strip(a) == strip(b)
     assert len(a.spaces) == 8
+
+
+def test_parameters_from_data_and_thesis_table():
+    rng = np.random.default_rng(3)
+    xy = rng.random((40_000, 2)) * 10.0
+    xyz = np.column_stack([xy, rng.normal(0, 0.01, len(xy))])  # σ_noise = 1 cm
+    from engine.grammar import params_from_data
+
+    p = params_from_data(xyz)
+    assert p.complete and 0.007 <= p.noise <= 0.013
+    assert p.shape_buffer >= 3 * p.noise and p.shape_buffer <= p.max_wall_thickness / 4
+    assert 0.02 <= p.bin_size <= p.max_wall_thickness / 2
+    kept = params_from_data(xyz, ManhattanParams(bin_size=0.04))
+    assert kept.bin_size == 0.04  # a chosen value is kept
+    t = ManhattanParams.spec_table("synthetic")
+    assert (t.bin_size, t.max_wall_thickness, t.shape_buffer) == (0.05, 0.5, 0.05)
+    with pytest.raises(ValueError):
+        ManhattanParams.spec_table("nope")

@@ -28,6 +28,9 @@ class ManhattanParams:
     * ``bin_size`` — at most half the maximum wall thickness (SPEC.md §2); a few times
       the noise so that one surface falls into one or two bins.
     * ``tau`` τ — empirical; faces need not be fully covered (doors, clutter, occlusion).
+
+    The thesis's own values (SPEC.md §6) are :meth:`spec_table`; :meth:`real_tls` loosens
+    the wall tests for real furnished rooms.
     """
 
     tau: float = 0.3
@@ -81,6 +84,20 @@ class ManhattanParams:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+    @classmethod
+    def spec_table(cls, dataset: str = "synthetic", **changes) -> "ManhattanParams":
+        """The thesis's values (SPEC.md §6, Table 6.2) instead of data-chosen ones.
+
+        ``dataset``: "synthetic" (bin 0.05, max wall 0.5, buffer 0.05), "real_tls" (bin
+        0.03, max wall 0.25, buffer 0.1) or "isprs" (bin 0.03, max wall 0.35, buffer 0.1).
+        σ and σ_noise are still estimated from the data when left None.
+        """
+        rows = {"synthetic": (0.05, 0.5, 0.05), "real_tls": (0.03, 0.25, 0.1), "isprs": (0.03, 0.35, 0.1)}
+        if dataset not in rows:
+            raise ValueError(f"dataset must be one of {sorted(rows)}, not {dataset!r}")
+        b, t, d = rows[dataset]
+        return replace(cls(bin_size=b, max_wall_thickness=t, shape_buffer=d), **changes)
 
     @classmethod
     def real_tls(cls, **changes) -> "ManhattanParams":
