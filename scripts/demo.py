@@ -34,6 +34,13 @@ def _blender_argv(argv):
     """Our arguments: after ``--`` inside Blender, else everything after the script."""
     if "--" in argv:
         return argv[argv.index("--") + 1:]
+    try:
+        import bpy
+
+        if bpy.app.binary_path:  # `blender -b -P demo.py` without "--": Blender's own options only
+            return []
+    except ImportError:
+        pass
     return argv[1:]
 
 

@@ -1,6 +1,6 @@
 """Build the Blender extension zip and fetch the wheels its manifest lists.
 
-    python scripts/extension.py build [--out dist] [--no-wheels]   # the zip, like Blender builds it
+    python scripts/extension.py build [--out dist] [--no-wheels] [--split-platforms]
     python scripts/extension.py wheels [--platform linux-x64 ...]    # download the listed wheels
     python scripts/extension.py lock [--platform ...]                # resolve versions -> wheel list
 
@@ -73,6 +73,23 @@ def manifest_without_wheels(text: str) -> str:
     return re.sub(r"(?m)^platforms\s*=\s*\[.*?\]\s*\n", "", text)
 
 
+def manifest_for_platform(text: str, platform: str, wheels: list[str]) -> str:
+    """The manifest text for one platform: ``platforms = [platform]`` and only ``wheels``."""
+    text = manifest_without_wheels(text)
+    block = f'platforms = ["{platform}"]\n'
+    if wheels:
+        block += "wheels = [\n" + "".join(f'  "./{w}",\n' for w in wheels) + "]\n"
+    m = re.search(r"(?m)^\[", text)  # before the first table, where top-level keys belong
+    at = m.start() if m else len(text)
+    return text[:at] + block + ("\n" if m else "") + text[at:]
+
+
+def wheel_platform(filename: str) -> str | None:
+    """The Blender platform of a wheel (``linux-x64``...), None for pure-Python wheels."""
+    plat = parse_wheel_name(filename)["plat"]
+    return None if plat == "any" else _plat_family(plat.split(".")[0])
+
+
 # --------------------------------------------------------------------------- exclusion
 def is_excluded(rel_path: str, is_dir: bool, patterns) -> bool:
     """Gitignore-style matching of Blender's ``paths_exclude_pattern``.
@@ -116,7 +133,8 @@ def package_files(root: str = ROOT, patterns=None) -> list[str]:
 
 
 # --------------------------------------------------------------------------- build
-def build(out_dir: str, *, root: str = ROOT, with_wheels: bool = True, name: str | None = None) -> str:
+def build(out_dir: str, *, root: str = ROOT, with_wheels: bool = True, name: str | None = None,
+          platform: str | None = None) -> str:
     """Write the extension zip and return its path.
 
     Parameters
@@ -126,11 +144,18 @@ def build(out_dir: str, *, root: str = ROOT, with_wheels: bool = True, name: str
     with_wheels : bool
         Bundle the wheels the manifest lists (they must be present: ``make wheels``). When
         False the zip's manifest lists no wheels and no ``wheels/`` folder is packed.
+    platform : str, optional
+        Build for one platform only (like Blender's ``--split-platforms``): only its wheels
+        and the pure-Python ones, ``platforms = [platform]``, named
+        ``<id>-<version>-<platform with _>.zip``.
     """
     manifest = read_manifest(root)
     files = package_files(root)
     wheels = [w.lstrip("./") for w in manifest.get("wheels", [])]
     manifest_text = open(os.path.join(root, MANIFEST), encoding="utf-8").read()
+    if platform is not None:
+        wheels = [w for w in wheels if wheel_platform(w) in (None, platform)]
+        manifest_text = manifest_for_platform(manifest_text, platform, wheels if with_wheels else [])
     if with_wheels:
         missing = [w for w in wheels if not os.path.isfile(os.path.join(root, w))]
         if missing:
@@ -139,12 +164,14 @@ def build(out_dir: str, *, root: str = ROOT, with_wheels: bool = True, name: str
         files = sorted(set(f for f in files if not f.startswith("wheels/")) | set(wheels))
     else:
         files = [f for f in files if not f.startswith("wheels/")]
-        manifest_text = manifest_without_wheels(manifest_text)
+        if platform is None:
+            manifest_text = manifest_without_wheels(manifest_text)
     for required in ("__init__.py", MANIFEST):
         if required not in files:
             raise SystemExit(f"{required} would not be packed: check paths_exclude_pattern")
     os.makedirs(out_dir, exist_ok=True)
-    dest = os.path.join(out_dir, name or f"{manifest['id']}-{manifest['version']}.zip")
+    suffix = "" if platform is None else "-" + platform.replace("-", "_")
+    dest = os.path.join(out_dir, name or f"{manifest['id']}-{manifest['version']}{suffix}.zip")
     fd, tmp = tempfile.mkstemp(prefix=".ext.", suffix=".zip.part", dir=out_dir)
     os.close(fd)
     try:
@@ -249,6 +276,8 @@ def main(argv=None):
     b = sub.add_parser("build", help="write the extension zip")
     b.add_argument("--out", default=os.path.join(ROOT, "dist"))
     b.add_argument("--no-wheels", action="store_true", help="a zip without the bundled wheels")
+    b.add_argument("--split-platforms", action="store_true",
+                   help="one zip per platform of the manifest, each with only its wheels")
     w = sub.add_parser("wheels", help="download the wheels the manifest lists")
     w.add_argument("--platform", action="append", choices=sorted(PLATFORM_TAGS),
                    help="only this platform's wheels (repeatable; default all)")
@@ -256,7 +285,11 @@ def main(argv=None):
     lk.add_argument("--platform", action="append", choices=sorted(PLATFORM_TAGS))
     args = p.parse_args(argv)
     if args.cmd == "build":
-        print(build(args.out, with_wheels=not args.no_wheels))
+        if args.split_platforms:
+            for plat in read_manifest().get("platforms", []):
+                print(build(args.out, with_wheels=not args.no_wheels, platform=plat))
+        else:
+            print(build(args.out, with_wheels=not args.no_wheels))
     elif args.cmd == "wheels":
         files = download_wheels(platforms=args.platform)
         print(f"{len(files)} wheel(s) in {os.path.join(ROOT, 'wheels')}")

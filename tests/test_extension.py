@@ -95,6 +95,28 @@ def test_build_with_wheels_needs_them_and_bundles_them(tmp_path):
         assert "wheels" not in tomllib.loads(z.read("blender_manifest.toml").decode())
 
 
+def test_split_platform_zip_holds_only_its_wheels(tmp_path):
+    root = _mini_root(tmp_path, "tiny-0.1-py3-none-any.whl")
+    manifest = (root / "blender_manifest.toml").read_text()
+    win, lin = "fast-1.0-cp311-cp311-win_amd64.whl", "fast-1.0-cp311-cp311-manylinux_2_28_x86_64.whl"
+    manifest = manifest.replace('  "./wheels/tiny-0.1-py3-none-any.whl",\n',
+                                f'  "./wheels/tiny-0.1-py3-none-any.whl",\n  "./wheels/{win}",\n  "./wheels/{lin}",\n')
+    manifest = manifest.replace("wheels = [", 'platforms = ["linux-x64", "windows-x64"]\nwheels = [')
+    (root / "blender_manifest.toml").write_text(manifest)
+    for w in ("tiny-0.1-py3-none-any.whl", win, lin):
+        with zipfile.ZipFile(root / "wheels" / w, "w") as z:
+            z.writestr("x.py", "")
+    path = ext.build(str(tmp_path / "dist"), root=str(root), platform="windows-x64")
+    assert os.path.basename(path) == "mini-1.2.3-windows_x64.zip"
+    with zipfile.ZipFile(path) as z:
+        assert sorted(z.namelist()) == ["__init__.py", "blender_manifest.toml",
+                                        f"wheels/{win}", "wheels/tiny-0.1-py3-none-any.whl"]
+        m = tomllib.loads(z.read("blender_manifest.toml").decode())
+    assert m["platforms"] == ["windows-x64"]
+    assert sorted(m["wheels"]) == [f"./wheels/{win}", "./wheels/tiny-0.1-py3-none-any.whl"]
+    assert m["build"]["paths_exclude_pattern"] == ["/notes/"]
+
+
 def test_manifest_wheels_cover_the_engine_dependencies():
     manifest = ext.read_manifest()
     wheels = manifest.get("wheels", [])
