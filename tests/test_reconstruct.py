@@ -1,0 +1,47 @@
+"""engine.reconstruct: the auto method choice and the report."""
+import numpy as np
+import pytest
+
+from engine.reconstruct import AUTO_THRESHOLD, choose_method, manhattan_share, model_report
+
+
+@pytest.mark.parametrize("name, noise, expected", [
+    ("office_mw", "mobile", "manhattan"),
+    ("house_multi_height", "tls", "manhattan"),
+    ("syn_house", "tls", "generic"),
+    ("hexagon_hall", "tls", "generic"),
+])
+def test_auto_method_choice(name, noise, expected):
+    from engine.synthetic import preset
+
+    cloud = preset(name, seed=2, noise=noise, target_points=100_000).cloud
+    method, share = choose_method(cloud)
+    assert method == expected, share
+
+
+def test_manhattan_share_is_rotation_invariant():
+    from engine.synthetic import preset
+
+    cloud = preset("office_mw", seed=4, target_points=100_000).cloud
+    a = np.radians(27.0)
+    m = np.eye(4)
+    m[:2, :2] = [[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]
+    assert manhattan_share(cloud.transformed(m)) >= AUTO_THRESHOLD
+
+
+def test_real_room_scan_is_manhattan(data_dir):
+    from engine.io import read_point_cloud
+
+    method, share = choose_method(read_point_cloud(f"{data_dir}/room_scan1.pcd"))
+    assert method == "manhattan" and share > 0.9
+
+
+def test_report_of_truth_model():
+    from engine.synthetic import preset
+
+    truth = preset("office_mw", seed=0, target_points=20_000).truth
+    r = model_report(truth)
+    assert r["summary"]["spaces"] == 8 and len(r["spaces"]) == 8
+    areas = sorted(s["floor_area_m2"] for s in r["spaces"])
+    assert all(a > 10 for a in areas)
+    assert len(r["topology"]["connectivity"]) == len(truth.relations_of("connectivity"))
