@@ -151,6 +151,10 @@ def test_preprocess_end_to_end_rotated_with_progress():
     areas = sorted(round(c.area, 1) for c in res.cells.cells)
     assert 20.0 in areas and 15.0 in areas
     assert res.working.fields["plane"].max() == len(res.planes) - 1
+    full = res.to_full(res.working.fields["segment_class"])
+    assert len(full) == len(res.cloud)
+    lab = res.cloud.fields["label"]  # truth: 0 wall, 1 floor, 2 ceiling
+    assert np.mean(full[lab == 0] == 0) > 0.85 and np.mean(full[lab == 1] == 1) > 0.85
     assert set(res.timings) >= {"clean", "normals", "align", "storeys", "planes", "cells"}
 
 

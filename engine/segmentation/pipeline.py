@@ -61,6 +61,18 @@ class Preprocessed:
     cells: Optional[CellComplex] = None
     timings: dict = field(default_factory=dict)
 
+    def to_full(self, values: np.ndarray) -> np.ndarray:
+        """Carry a per-working-point array (m, ...) onto every point of ``cloud`` (n, ...)
+        through each point's nearest working point (e.g. ``working.fields["plane"]`` to
+        colour the full cloud by plane). Costs one k-d tree query of the full cloud."""
+        from scipy.spatial import cKDTree
+
+        values = np.asarray(values)
+        if len(values) != len(self.working):
+            raise ValueError(f"expected {len(self.working)} values (one per working point), got {len(values)}")
+        _, nn = cKDTree(self.working.xyz).query(self.cloud.xyz, k=1, workers=-1)
+        return values[nn]
+
 
 def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(), *, rng=0,
                progress=None, should_stop=None) -> Preprocessed:
