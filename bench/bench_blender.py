@@ -58,7 +58,8 @@ try:
         r = {"read_s": [], "bridge_s": [], "evaluate_s": [], "operator_s": []}
         for _ in range(repeats):
             bpy.ops.wm.read_homefile(app_template="", use_factory_startup=True)
-            t = time.perf_counter(); cloud = io.read_point_cloud(path); r["read_s"].append(time.perf_counter() - t)
+            t = time.perf_counter(); cloud = io.read_point_cloud(path)
+            r["read_s"].append(time.perf_counter() - t)
             t = time.perf_counter(); obj = addon.bridge.point_cloud_to_object(cloud)
             r["bridge_s"].append(time.perf_counter() - t)
             t = time.perf_counter(); dg = bpy.context.evaluated_depsgraph_get(); obj.evaluated_get(dg)

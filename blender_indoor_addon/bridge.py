@@ -258,7 +258,8 @@ def _write_field(mesh, name, values):
         return [name]
     if a.ndim == 1:
         if a.dtype.kind in "iub":
-            if a.size and a.dtype.kind in "iu" and (a.max() > np.iinfo(np.int32).max or a.min() < np.iinfo(np.int32).min):
+            i32 = np.iinfo(np.int32)
+            if a.size and a.dtype.kind in "iu" and (a.max() > i32.max or a.min() < i32.min):
                 attr = _attribute(mesh, name, "FLOAT")  # does not fit an INT attribute
                 attr.data.foreach_set("value", a.astype(np.float32))
             else:

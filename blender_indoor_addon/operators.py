@@ -104,7 +104,8 @@ class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
                 pass
         self.report({"INFO"}, f"Imported {len(cloud):,} points from {os.path.basename(path)} "
                               f"(read {t1 - t0:.2f} s, Blender {t2 - t1:.2f} s)")
-        log.info("imported %d points from %s: read %.2f s, Blender %.2f s", len(cloud), path, t1 - t0, t2 - t1)
+        log.info("imported %d points from %s: read %.2f s, Blender %.2f s",
+                 len(cloud), path, t1 - t0, t2 - t1)
         return {"FINISHED"}
 
 

@@ -192,7 +192,8 @@ def build(out_dir: str, *, root: str = ROOT, with_wheels: bool = True, name: str
 
 
 # --------------------------------------------------------------------------- wheels
-_WHEEL_RE = re.compile(r"^(?P<name>[^-]+)-(?P<version>[^-]+)(-\d[^-]*)?-(?P<py>[^-]+)-(?P<abi>[^-]+)-(?P<plat>[^-]+)\.whl$")
+_WHEEL_RE = re.compile(r"^(?P<name>[^-]+)-(?P<version>[^-]+)(-\d[^-]*)?"
+                       r"-(?P<py>[^-]+)-(?P<abi>[^-]+)-(?P<plat>[^-]+)\.whl$")
 
 
 def parse_wheel_name(filename: str) -> dict:

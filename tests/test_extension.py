@@ -18,7 +18,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _extension_script():
-    spec = importlib.util.spec_from_file_location("extension_script", os.path.join(ROOT, "scripts", "extension.py"))
+    spec = importlib.util.spec_from_file_location("extension_script",
+                                                  os.path.join(ROOT, "scripts", "extension.py"))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -99,8 +100,8 @@ def test_split_platform_zip_holds_only_its_wheels(tmp_path):
     root = _mini_root(tmp_path, "tiny-0.1-py3-none-any.whl")
     manifest = (root / "blender_manifest.toml").read_text()
     win, lin = "fast-1.0-cp311-cp311-win_amd64.whl", "fast-1.0-cp311-cp311-manylinux_2_28_x86_64.whl"
-    manifest = manifest.replace('  "./wheels/tiny-0.1-py3-none-any.whl",\n',
-                                f'  "./wheels/tiny-0.1-py3-none-any.whl",\n  "./wheels/{win}",\n  "./wheels/{lin}",\n')
+    tiny = '  "./wheels/tiny-0.1-py3-none-any.whl",\n'
+    manifest = manifest.replace(tiny, tiny + f'  "./wheels/{win}",\n  "./wheels/{lin}",\n')
     manifest = manifest.replace("wheels = [", 'platforms = ["linux-x64", "windows-x64"]\nwheels = [')
     (root / "blender_manifest.toml").write_text(manifest)
     for w in ("tiny-0.1-py3-none-any.whl", win, lin):
@@ -149,7 +150,8 @@ out = {"repo_dir": bpy.utils.user_resource("EXTENSIONS", path="user_default")}
 
 
 def main():
-    res = bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
+    res = bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default",
+                                                   enable_on_install=True)
     out["install"] = sorted(res)
     import importlib
     mod = importlib.import_module("bl_ext.user_default.indoor_reconstruction")
@@ -163,7 +165,8 @@ def main():
     bpy.ops.preferences.addon_disable(module="bl_ext.user_default.indoor_reconstruction")
     out["operator_after_disable"] = "import_scan" in dir(bpy.ops.indoor)
     repo_index = [r.module for r in bpy.context.preferences.extensions.repos].index("user_default")
-    out["uninstall"] = sorted(bpy.ops.extensions.package_uninstall(repo_index=repo_index, pkg_id="indoor_reconstruction"))
+    out["uninstall"] = sorted(bpy.ops.extensions.package_uninstall(repo_index=repo_index,
+                                                                   pkg_id="indoor_reconstruction"))
     out["left_after_uninstall"] = os.path.exists(os.path.join(out["repo_dir"], "indoor_reconstruction"))
 
 
