@@ -730,41 +730,19 @@ class BuildingModel:
         return out
 
     # ---------------------------------------------------------------- graphs
-    def graph(self, kind: str = "connectivity", level: str = "space"):
+    def graph(self, kind: str = "connectivity", level: str = "space", include_exterior: bool = True):
         """A networkx Graph of ``kind`` relations between spaces.
 
         ``level="space"``: nodes are active interior (and exterior) spaces; relations
         between their parts are lifted to them. ``level="subspace"``: nodes are the
-        innermost parts (cuboids / cells). Edge attribute ``via`` names the wall or door.
-        Node attributes: ``name``, ``type``, ``centroid``.
+        innermost parts (cuboids / cells) and only relations recorded between parts are
+        used. Edge attributes ``via`` (wall or door) and ``weight`` (centroid distance, m);
+        node attributes ``name``, ``type``, ``centroid``, ``storey``. Same as
+        :func:`engine.topology.space_graph`.
         """
-        import networkx as nx
+        from .topology.graph import space_graph
 
-        g = nx.Graph()
-        spaces = [s for s in self.shapes if s.is_space]
-        if level == "space":
-            nodes = [s for s in spaces if s.active]
-            lift = lambda i: self.top_level(i).id  # noqa: E731
-        elif level == "subspace":
-            nodes = [s for s in spaces if not any(c in self and self[c].type == s.type for c in s.children)]
-            lift = lambda i: i  # noqa: E731
-        else:
-            raise ValueError(f"level must be 'space' or 'subspace', not {level!r}")
-        for s in nodes:
-            g.add_node(s.id, name=s.name, type=s.type.value, centroid=tuple(s.centroid))
-        for r in self.relations:
-            if r.kind != kind or r.a not in self or r.b not in self:
-                continue
-            if level == "subspace":
-                # relations recorded between merged spaces: spread to their touching parts
-                pairs = [(a.id, b.id) for a in self.leaves(r.a) for b in self.leaves(r.b)] \
-                    if (len(self.leaves(r.a)) > 1 or len(self.leaves(r.b)) > 1) and r.via else [(r.a, r.b)]
-            else:
-                pairs = [(lift(r.a), lift(r.b))]
-            for a, b in pairs:
-                if a != b and a in g and b in g:
-                    g.add_edge(a, b, via=r.via)
-        return g
+        return space_graph(self, kind, level, include_exterior=include_exterior)
 
     # ---------------------------------------------------------------- JSON
     def to_dict(self) -> dict:
