@@ -1,0 +1,114 @@
+"""Batch conversion inside Blender: scans → IFC + JSON (as ``indoor convert``) + a .blend each.
+
+    blender -b -P scripts/batch.py -- SCAN [SCAN ...] --out DIR [--method auto] [--seed 0]
+    .venv/bin/python scripts/batch.py SCAN [SCAN ...] --out DIR         # with the bpy module
+
+For each scan: ``engine.reconstruct.convert_file`` writes ``DIR/<name>.ifc`` and
+``DIR/<name>.json``; the add-on's Import scan operator builds the point mesh on a fresh
+scene, saved as ``DIR/<name>.blend``. A bad file is reported on one line and the batch goes
+on; ``DIR/batch.json`` lists what succeeded and what failed. Exit code 0 only when every
+scan succeeded.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import json
+import logging
+import os
+import site
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PACKAGE = "indoor_reconstruction"
+
+log = logging.getLogger("indoor.batch")
+
+
+def _argv(argv):
+    if "--" in argv:
+        return argv[argv.index("--") + 1:]
+    return argv[1:]
+
+
+def load_package(name=PACKAGE):
+    """Import the source tree (the repository root is the extension package) as ``name``."""
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(
+        name, os.path.join(ROOT, "__init__.py"), submodule_search_locations=[ROOT])
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(prog="batch.py", description=__doc__.split("\n\n")[0])
+    p.add_argument("scans", nargs="+", help="scan files")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--method", choices=("auto", "manhattan", "generic"), default="auto")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--no-ifc", action="store_true", help="skip the IFC file")
+    return p.parse_args(argv)
+
+
+def convert_one(pkg, scan, args):
+    """IFC + JSON through the engine, then the .blend with the scan's point mesh."""
+    import bpy
+
+    reconstruct = importlib.import_module(PACKAGE + ".engine.reconstruct")
+    atomic_path = pkg.engine.fileutil.atomic_path
+    t0 = time.perf_counter()
+    result = reconstruct.convert_file(scan, args.out, method=args.method, seed=args.seed,
+                                      write_ifc=not args.no_ifc)
+    t1 = time.perf_counter()
+    bpy.ops.wm.read_homefile(app_template="", use_factory_startup=True)
+    for obj in list(bpy.data.objects):
+        bpy.data.objects.remove(obj, do_unlink=True)
+    res = bpy.ops.indoor.import_scan(filepath=os.path.abspath(scan))
+    if res != {"FINISHED"}:
+        raise RuntimeError(f"{scan}: import into Blender failed")
+    name = os.path.splitext(os.path.basename(scan))[0]
+    blend = os.path.join(args.out, name + ".blend")
+    with atomic_path(blend, suffix=".blend") as tmp:
+        os.remove(tmp)  # else Blender keeps the empty placeholder as a ".blend1" backup
+        bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True, compress=True)
+    return {"scan": scan, "ifc": result.ifc_path, "json": result.json_path, "blend": blend,
+            "convert_s": round(t1 - t0, 3), "blender_s": round(time.perf_counter() - t1, 3)}
+
+
+def main(argv=None):
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    args = parse_args(_argv(sys.argv if argv is None else argv))
+    import bpy
+
+    if bpy.app.binary_path:  # a real Blender: borrow the project's .venv packages (see run_tests.py)
+        venv_site = os.path.join(ROOT, ".venv", "lib", "python%d.%d" % sys.version_info[:2], "site-packages")
+        if os.path.isdir(venv_site):
+            site.addsitedir(venv_site)
+    pkg = load_package()
+    errors = importlib.import_module(PACKAGE + ".engine.errors")
+    os.makedirs(args.out, exist_ok=True)
+    pkg.register()
+    done, failed = [], []
+    try:
+        for scan in args.scans:
+            try:
+                done.append(convert_one(pkg, scan, args))
+                log.info("ok: %s", scan)
+            except (errors.IndoorError, RuntimeError) as e:
+                failed.append({"scan": scan, "error": str(e)})
+                log.error("failed: %s", e)
+    finally:
+        pkg.unregister()  # the bpy module hangs at exit with classes still registered
+    pkg.engine.fileutil.atomic_write_text(
+        os.path.join(args.out, "batch.json"), json.dumps({"done": done, "failed": failed}, indent=2) + "\n")
+    log.info("%d converted, %d failed", len(done), len(failed))
+    return 0 if not failed else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
