@@ -31,6 +31,7 @@ __all__ = [
     "object_points",
     "set_display",
     "add_height_colors",
+    "remove_objects",
 ]
 
 SCAN_COLLECTION = "Scan"
@@ -375,6 +376,18 @@ def point_cloud_to_object(cloud, name: str | None = None, *, collection: str = S
         _undo_created(created, scene)
         raise
     return obj
+
+
+def remove_objects(objects) -> None:
+    """Delete point-mesh objects made by :func:`point_cloud_to_object` and their meshes."""
+    for obj in objects:
+        try:
+            mesh = obj.data
+            bpy.data.objects.remove(obj, do_unlink=True)
+            if mesh is not None and mesh.users == 0:
+                bpy.data.meshes.remove(mesh)
+        except ReferenceError:  # already gone
+            pass
 
 
 def set_display(obj, *, display_ratio: float | None = None, point_radius: float | None = None,

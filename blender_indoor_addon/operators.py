@@ -10,7 +10,7 @@ import os
 import time
 
 import bpy
-from bpy.props import FloatProperty, IntProperty, StringProperty
+from bpy.props import CollectionProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 
 from ..engine.errors import IndoorError
@@ -60,6 +60,8 @@ class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
         default=0.01, min=0.0, soft_max=0.1, subtype="DISTANCE", unit="LENGTH", precision=4,
     )
     seed: IntProperty(name="Seed", description="Seed of the random display subset", default=0, min=0)
+    files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"HIDDEN", "SKIP_SAVE"})
+    directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
 
     def _defaults_from_scene(self, context):
         settings = getattr(context.scene, "indoor", None)
@@ -73,20 +75,39 @@ class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
         self._defaults_from_scene(context)
         return ImportHelper.invoke(self, context, event)
 
+    def _paths(self):
+        """The chosen files: every file selected in the browser, else ``filepath``."""
+        names = [f.name for f in self.files if f.name]
+        if names and self.directory:
+            return [bpy.path.abspath(os.path.join(self.directory, n)) for n in names]
+        return [bpy.path.abspath(self.filepath)]
+
     def execute(self, context):
         from ..engine.io import read_point_cloud  # the engine is imported on first use
 
         self._defaults_from_scene(context)
-        path = bpy.path.abspath(self.filepath)
+        paths = self._paths()
         wm = context.window_manager
         wm.progress_begin(0, 1000)
+        progress = _progress_callback(context)
         t0 = time.perf_counter()
         try:
-            cloud = read_point_cloud(path, progress=_progress_callback(context))
+            # every file is read before Blender data changes: a bad file leaves the scene as it was
+            clouds = []
+            for i, path in enumerate(paths):
+                share = (i / len(paths), (i + 1) / len(paths))
+                clouds.append(read_point_cloud(
+                    path, progress=lambda f, m="", a=share: progress(a[0] + f * (a[1] - a[0]), m)))
             t1 = time.perf_counter()
-            obj = bridge.point_cloud_to_object(
-                cloud, display_ratio=self.display_ratio, point_radius=self.point_radius,
-                seed=self.seed, scene=context.scene)
+            objects = []
+            try:
+                for cloud in clouds:
+                    objects.append(bridge.point_cloud_to_object(
+                        cloud, display_ratio=self.display_ratio, point_radius=self.point_radius,
+                        seed=self.seed, scene=context.scene))
+            except BaseException:
+                bridge.remove_objects(objects)
+                raise
         except IndoorError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
@@ -97,15 +118,17 @@ class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
         if view_layer is not None:
             for o in view_layer.objects.selected:
                 o.select_set(False)
-            try:
-                obj.select_set(True, view_layer=view_layer)
-                view_layer.objects.active = obj
-            except RuntimeError:  # the Scan collection is excluded from this view layer
-                pass
-        self.report({"INFO"}, f"Imported {len(cloud):,} points from {os.path.basename(path)} "
+            for obj in objects:
+                try:
+                    obj.select_set(True, view_layer=view_layer)
+                    view_layer.objects.active = obj
+                except RuntimeError:  # the Scan collection is excluded from this view layer
+                    pass
+        n = sum(len(c) for c in clouds)
+        what = os.path.basename(paths[0]) if len(paths) == 1 else f"{len(paths)} files"
+        self.report({"INFO"}, f"Imported {n:,} points from {what} "
                               f"(read {t1 - t0:.2f} s, Blender {t2 - t1:.2f} s)")
-        log.info("imported %d points from %s: read %.2f s, Blender %.2f s",
-                 len(cloud), path, t1 - t0, t2 - t1)
+        log.info("imported %d points from %s: read %.2f s, Blender %.2f s", n, what, t1 - t0, t2 - t1)
         return {"FINISHED"}
 
 

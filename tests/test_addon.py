@@ -232,6 +232,21 @@ def test_bad_file_reports_error_and_leaves_scene_unchanged(scene, tmp_path, case
     assert bu.scene_state() == before
 
 
+def test_several_files_at_once_and_one_bad_file_imports_none(scene, tmp_path, rng):
+    for name in ("s1", "s2"):
+        bu.write_binary_ply(str(tmp_path / f"{name}.ply"), rng.uniform(0, 5, (300, 3)))
+    _truncated_ply(str(tmp_path / "s3.ply"))
+    before = bu.scene_state()
+    with pytest.raises(RuntimeError, match="s3.ply"):
+        bpy.ops.indoor.import_scan(directory=str(tmp_path), files=[{"name": "s1.ply"}, {"name": "s3.ply"}])
+    assert bu.scene_state() == before
+    assert bpy.ops.indoor.import_scan(directory=str(tmp_path),
+                                      files=[{"name": "s1.ply"}, {"name": "s2.ply"}]) == {"FINISHED"}
+    objs = scene.collection.children["Scan"].objects
+    assert sorted(o.name for o in objs) == ["s1", "s2"]
+    assert all(len(o.data.vertices) == 300 for o in objs)
+
+
 def test_bridge_failure_midway_removes_what_it_made(scene, addon, monkeypatch, rng):
     eng = bu.engine_module()
     cloud = eng.PointCloud(xyz=rng.uniform(0, 1, (50, 3)), fields={"label": np.arange(50)})
