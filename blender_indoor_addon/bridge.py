@@ -32,6 +32,10 @@ __all__ = [
     "set_display",
     "add_height_colors",
     "remove_objects",
+    "object_to_cloud",
+    "model_to_objects",
+    "model_objects",
+    "stored_model",
 ]
 
 SCAN_COLLECTION = "Scan"
@@ -112,6 +116,8 @@ def _undo_created(created: list, scene: bpy.types.Scene) -> None:
                 bpy.data.node_groups.remove(item, do_unlink=True)
             elif kind == "material":
                 bpy.data.materials.remove(item, do_unlink=True)
+            elif kind == "text":
+                bpy.data.texts.remove(item, do_unlink=True)
         except (ReferenceError, RuntimeError):  # already gone
             pass
 
@@ -502,3 +508,164 @@ def add_height_colors(obj, *, z_range: tuple[float, float] | None = None, make_a
         mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
     mesh.update()
     return HEIGHT_COLOR
+
+
+# --------------------------------------------------------------------------- scan → engine
+def object_to_cloud(obj):
+    """A :class:`~engine.pointcloud.PointCloud` from a point mesh (the inverse of
+    :func:`point_cloud_to_object` for coordinates, offset, colour, intensity, normals).
+
+    ``xyz`` (n, 3) float64 metres are the float32 vertices (offset removed, object frame);
+    the object's own transform is not applied.
+    """
+    from ..engine.pointcloud import PointCloud
+
+    mesh = obj.data
+    n = len(mesh.vertices)
+    xyz, offset = object_points(obj)
+    kw = {}
+    attrs = mesh.attributes
+    if "color" in attrs and attrs["color"].domain == "POINT":
+        rgba = np.empty(n * 4, dtype=np.float32)
+        attrs["color"].data.foreach_get("color_srgb", rgba)
+        kw["colors"] = np.clip(np.rint(rgba.reshape(n, 4)[:, :3] * 255), 0, 255).astype(np.uint8)
+    if "intensity" in attrs and attrs["intensity"].data_type == "FLOAT":
+        v = np.empty(n, dtype=np.float32)
+        attrs["intensity"].data.foreach_get("value", v)
+        kw["intensity"] = v
+    if "normal" in attrs and attrs["normal"].data_type == "FLOAT_VECTOR":
+        v = np.empty(n * 3, dtype=np.float32)
+        attrs["normal"].data.foreach_get("vector", v)
+        kw["normals"] = v.reshape(n, 3)
+    return PointCloud(xyz=xyz, offset=offset, source=str(obj.get(SOURCE_PROP, "")), **kw)
+
+
+# --------------------------------------------------------------------------- model → objects
+MODEL_COLLECTION = "Indoor Model"
+"""Parent collection of a reconstructed model's collections."""
+TYPE_COLLECTIONS = {"interior": "Spaces", "wall": "Walls", "exterior": "Exterior", "door": "Doors",
+                    "slab": "Slabs", "none": "Cells"}
+"""Collection of each active shape type; inactive shapes (cells, sub-spaces) go to "Cells"."""
+CELLS_COLLECTION = "Cells"
+"""Hidden collection of the inactive shapes (cells and sub-spaces of merged spaces)."""
+TYPE_COLORS = {"interior": (0.25, 0.60, 0.95, 0.35), "wall": (0.80, 0.78, 0.74, 1.0),
+               "exterior": (0.35, 0.80, 0.40, 0.25), "door": (0.75, 0.45, 0.20, 1.0),
+               "slab": (0.55, 0.55, 0.58, 1.0), "none": (0.6, 0.6, 0.6, 0.2)}
+"""Linear RGBA per shape type (viewport object colour and material); spaces are see-through."""
+SHAPE_PROP = "indoor_shape_id"
+"""Custom property on a shape object: the id of its :class:`~engine.model.Shape`."""
+MODEL_TEXT = "Indoor Model.json"
+"""Text datablock that keeps the model (``BuildingModel.to_json``) inside the .blend."""
+
+
+def _type_material(kind: str, created: list):
+    name = f"Indoor {kind.capitalize()}"
+    mat = bpy.data.materials.get(name)
+    if mat is not None and mat.library is None:
+        return mat
+    mat = bpy.data.materials.new(name)
+    created.append(("material", mat))
+    rgba = TYPE_COLORS.get(kind, TYPE_COLORS["none"])
+    mat.diffuse_color = rgba
+    mat.use_nodes = True
+    bsdf = mat.node_tree.nodes.get("Principled BSDF")
+    bsdf.inputs["Base Color"].default_value = (*rgba[:3], 1.0)
+    bsdf.inputs["Alpha"].default_value = rgba[3]
+    if rgba[3] < 1.0:
+        if hasattr(mat, "surface_render_method"):  # 4.2+
+            mat.surface_render_method = "BLENDED"
+    return mat
+
+
+def model_objects(scene=None) -> list:
+    """The shape objects of the current model (those carrying ``indoor_shape_id``)."""
+    scene = scene or bpy.context.scene
+    top = scene.collection.children.get(MODEL_COLLECTION)
+    if top is None:
+        return []
+    return [o for o in top.all_objects if SHAPE_PROP in o]
+
+
+def model_to_objects(model, *, scene=None) -> dict:
+    """Build one mesh object per shape of a :class:`~engine.model.BuildingModel`.
+
+    Active shapes go to the collections Spaces, Walls, Exterior, Doors, Slabs (by type)
+    under "Indoor Model"; inactive ones (cells, sub-spaces) to the hidden "Cells". Each
+    object's matrix is ``model.transform`` so shapes sit on the scan (same frame as the
+    point mesh: offset removed). Custom properties: ``indoor_shape_id``, ``indoor_type``,
+    ``indoor_storey`` and the shape's support figures. The model itself is stored as
+    JSON in the text "Indoor Model.json". A previous model is replaced; on failure the
+    scene is left as it was.
+
+    Returns
+    -------
+    dict of str -> list of bpy.types.Object, by collection name.
+    """
+    from mathutils import Matrix
+
+    scene = scene or bpy.context.scene
+    old = model_objects(scene)
+    created: list = []
+    by_coll: dict = {}
+    names: list = []
+    try:
+        top = ensure_collection(MODEL_COLLECTION, scene, created)
+        matrix = Matrix(np.asarray(model.transform, dtype=np.float64).tolist())
+        for shape in model.shapes:
+            kind = shape.type.value
+            coll_name = TYPE_COLLECTIONS.get(kind, CELLS_COLLECTION) if shape.active else CELLS_COLLECTION
+            coll = top.children.get(coll_name)
+            if coll is None:
+                coll = bpy.data.collections.new(coll_name)
+                created.append(("collection", coll))
+                top.children.link(coll)
+                if coll_name == CELLS_COLLECTION:
+                    coll.hide_viewport = True
+                    coll.hide_render = True
+            geom = shape.geometry
+            mesh = bpy.data.meshes.new(shape.name or shape.id)
+            created.append(("mesh", mesh))
+            mesh.from_pydata(np.asarray(geom.vertices, dtype=np.float64).tolist(), [],
+                             [list(map(int, f)) for f in geom.faces])
+            mesh.update()
+            mesh.materials.append(_type_material(kind, created))
+            obj = bpy.data.objects.new(shape.name or shape.id, mesh)
+            created.append(("object", obj))
+            obj.matrix_world = matrix
+            obj[SHAPE_PROP] = shape.id
+            obj["indoor_type"] = kind
+            obj["indoor_storey"] = int(shape.storey)
+            for k, v in shape.support.items():
+                obj["indoor_" + k] = float(v)
+            obj.color = TYPE_COLORS.get(kind, TYPE_COLORS["none"])
+            if kind in ("interior", "exterior"):
+                obj.show_transparent = True
+            coll.objects.link(obj)
+            by_coll.setdefault(coll_name, []).append(obj)
+            names.append((obj, shape.name or shape.id))
+        text = bpy.data.texts.get(MODEL_TEXT)
+        if text is None:
+            text = bpy.data.texts.new(MODEL_TEXT)
+            created.append(("text", text))
+        json_text = model.to_json()
+    except BaseException:
+        _undo_created(created, scene)
+        raise
+    text.clear()
+    text.write(json_text)
+    remove_objects(old)
+    for obj, wanted in names:  # take back the names the replaced model held
+        if obj.name != wanted and bpy.data.objects.get(wanted) is None:
+            obj.name = wanted
+            obj.data.name = wanted
+    return by_coll
+
+
+def stored_model():
+    """The model kept in the .blend by :func:`model_to_objects`, or None."""
+    from ..engine.model import BuildingModel
+
+    text = bpy.data.texts.get(MODEL_TEXT)
+    if text is None or not text.as_string().strip():
+        return None
+    return BuildingModel.from_json(text.as_string())

@@ -10,15 +10,16 @@ import os
 import time
 
 import bpy
-from bpy.props import CollectionProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 
 from ..engine.errors import IndoorError
 from . import bridge
+from .props import METHOD_ITEMS
 
 log = logging.getLogger(__name__)
 
-__all__ = ["INDOOR_OT_import_scan", "SCAN_EXTENSIONS", "CLASSES", "menu_import"]
+__all__ = ["INDOOR_OT_import_scan", "INDOOR_OT_reconstruct", "SCAN_EXTENSIONS", "CLASSES", "menu_import"]
 
 SCAN_EXTENSIONS = (".ply", ".pcd", ".e57", ".las", ".laz", ".pts", ".xyz", ".txt", ".csv")
 """File extensions the Import scan file browser shows (the engine decides what it reads)."""
@@ -132,10 +133,55 @@ class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
         return {"FINISHED"}
 
 
+class INDOOR_OT_reconstruct(bpy.types.Operator):
+    """Reconstruct spaces, walls and their topology from the active scan"""
+
+    bl_idname = "indoor.reconstruct"
+    bl_label = "Reconstruct"
+    bl_options = {"REGISTER", "UNDO"}
+
+    method: EnumProperty(name="Method", items=METHOD_ITEMS, default="auto")
+    seed: IntProperty(name="Seed", default=0, min=0, description="Same seed, same model")
+
+    @classmethod
+    def poll(cls, context):
+        return bridge.is_point_mesh(context.active_object)
+
+    def invoke(self, context, event):
+        settings = getattr(context.scene, "indoor", None)
+        if settings is not None:
+            if not self.properties.is_property_set("method"):
+                self.method = settings.method
+            if not self.properties.is_property_set("seed"):
+                self.seed = settings.reconstruct_seed
+        return self.execute(context)
+
+    def execute(self, context):
+        from ..engine.reconstruct import reconstruct  # the engine is imported on first use
+
+        obj = context.active_object
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        t0 = time.perf_counter()
+        try:
+            cloud = bridge.object_to_cloud(obj)
+            model = reconstruct(cloud, self.method, rng=self.seed, progress=_progress_callback(context))
+            by_coll = bridge.model_to_objects(model, scene=context.scene)
+        except IndoorError as e:
+            self.report({"ERROR"}, f"{obj.name}: {e}")
+            return {"CANCELLED"}
+        finally:
+            wm.progress_end()
+        counts = ", ".join(f"{len(v)} {k.lower()}" for k, v in sorted(by_coll.items()) if k != "Cells")
+        self.report({"INFO"}, f"Reconstructed {obj.name} ({model.provenance.method or self.method}): "
+                              f"{counts} in {time.perf_counter() - t0:.1f} s")
+        return {"FINISHED"}
+
+
 def menu_import(self, context):
     """File ▸ Import entry."""
     self.layout.operator(INDOOR_OT_import_scan.bl_idname,
                          text="Indoor Scan (" + " ".join(SCAN_EXTENSIONS) + ")")
 
 
-CLASSES = (INDOOR_OT_import_scan,)
+CLASSES = (INDOOR_OT_import_scan, INDOOR_OT_reconstruct)

@@ -5,7 +5,7 @@ import bpy
 
 from . import bridge
 
-__all__ = ["INDOOR_PT_import_scan", "CLASSES"]
+__all__ = ["INDOOR_PT_import_scan", "INDOOR_PT_reconstruct", "CLASSES"]
 
 
 class _IndoorPanel:
@@ -46,4 +46,31 @@ class INDOOR_PT_import_scan(_IndoorPanel, bpy.types.Panel):
                 box.prop(mod, f'["{ident}"]', text=name)
 
 
-CLASSES = (INDOOR_PT_import_scan,)
+class INDOOR_PT_reconstruct(_IndoorPanel, bpy.types.Panel):
+    """Reconstruct the active scan; the model's collections."""
+
+    bl_idname = "INDOOR_PT_reconstruct"
+    bl_label = "Reconstruct"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = getattr(context.scene, "indoor", None)
+        if settings is not None:
+            layout.prop(settings, "method")
+            layout.prop(settings, "reconstruct_seed")
+        op = layout.operator("indoor.reconstruct", icon="MOD_BUILD")
+        if settings is not None:
+            op.method = settings.method
+            op.seed = settings.reconstruct_seed
+        if not bridge.is_point_mesh(context.active_object):
+            layout.label(text="Select an imported scan", icon="INFO")
+        top = context.scene.collection.children.get(bridge.MODEL_COLLECTION)
+        if top is not None:
+            col = layout.column(align=True)
+            for coll in top.children:
+                col.label(text=f"{coll.name}: {len(coll.objects)}", icon="OUTLINER_COLLECTION")
+
+
+CLASSES = (INDOOR_PT_import_scan, INDOOR_PT_reconstruct)

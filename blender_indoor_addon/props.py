@@ -2,9 +2,16 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import FloatProperty, IntProperty
+from bpy.props import EnumProperty, FloatProperty, IntProperty
 
-__all__ = ["INDOOR_PG_settings", "CLASSES"]
+METHOD_ITEMS = (
+    ("auto", "Auto", "Manhattan grammar when the walls are mostly orthogonal, else generic"),
+    ("manhattan", "Manhattan", "Shape grammar for orthogonal walls (SPEC.md §2)"),
+    ("generic", "Generic", "Cell decomposition and rjMCMC for any wall directions (SPEC.md §3)"),
+)
+"""Reconstruction methods (ids of ``engine.reconstruct.METHODS``)."""
+
+__all__ = ["INDOOR_PG_settings", "CLASSES", "METHOD_ITEMS"]
 
 
 class INDOOR_PG_settings(bpy.types.PropertyGroup):
@@ -25,6 +32,10 @@ class INDOOR_PG_settings(bpy.types.PropertyGroup):
         description="Seed of the random display subset",
         default=0, min=0,
     )
+    method: EnumProperty(name="Method", items=METHOD_ITEMS, default="auto",
+                         description="Reconstruction method")
+    reconstruct_seed: IntProperty(name="Seed", default=0, min=0,
+                                  description="Seed of the reconstruction (same seed, same model)")
 
 
 CLASSES = (INDOOR_PG_settings,)

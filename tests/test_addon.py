@@ -302,3 +302,72 @@ def test_height_colors_follow_z(scene, addon):
     np.testing.assert_allclose(rgba[0, :3], ramp[0][1], atol=1 / 255)
     np.testing.assert_allclose(rgba[-1, :3], ramp[-1][1], atol=1 / 255)
     assert obj.data.color_attributes.active_color.name == name
+
+
+# --------------------------------------------------------------------------- Reconstruct
+@pytest.fixture(scope="module")
+def office_scan():
+    synthetic = bu.engine_module("synthetic")
+    return synthetic.preset("office_mw", seed=1, target_points=60_000)
+
+
+def test_object_to_cloud_round_trips_the_import(scene, addon, rng):
+    eng = bu.engine_module()
+    n = 500
+    xyz, colors, intensity, normals, _, _ = _synthetic_cloud_arrays(n, rng)
+    cloud = eng.PointCloud(xyz=xyz, colors=colors, intensity=intensity, normals=normals, offset=[100.0, 0, 5])
+    back = addon.bridge.object_to_cloud(addon.bridge.point_cloud_to_object(cloud, name="rt"))
+    np.testing.assert_allclose(back.xyz, xyz, atol=1e-5)
+    np.testing.assert_array_equal(back.colors, colors)
+    np.testing.assert_array_equal(back.intensity, intensity)
+    np.testing.assert_allclose(back.normals, normals, atol=1e-7)
+    np.testing.assert_array_equal(back.offset, cloud.offset)
+
+
+def test_reconstruct_builds_collections_from_the_model(scene, addon, office_scan):
+    obj = addon.bridge.point_cloud_to_object(office_scan.cloud, name="office")
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.indoor.reconstruct(method="manhattan", seed=0) == {"FINISHED"}
+    model = addon.bridge.stored_model()
+    # the same engine call on the same data gives the model the operator stored
+    engine_reconstruct = bu.engine_module("reconstruct").reconstruct
+    expect = engine_reconstruct(addon.bridge.object_to_cloud(obj), "manhattan", rng=0)
+    assert [s.id for s in model.shapes] == [s.id for s in expect.shapes]
+    top = scene.collection.children["Indoor Model"]
+    colls = {c.name: c for c in top.children}
+    active = [s for s in model.shapes if s.active]
+    n_rooms = sum(s.type.value == "interior" for s in active)
+    n_walls = sum(s.type.value == "wall" for s in active)
+    assert n_rooms >= 2 and n_walls >= 4
+    assert len(colls["Spaces"].objects) == n_rooms and len(colls["Walls"].objects) == n_walls
+    assert len(colls["Cells"].objects) == sum(not s.active for s in model.shapes)
+    assert colls["Cells"].hide_viewport and colls["Cells"].hide_render
+    # geometry: each object's world vertices are the shape's vertices mapped by the model transform
+    shapes = {s.id: s for s in model.shapes}
+    wall = colls["Walls"].objects[0]
+    geom = shapes[wall["indoor_shape_id"]].geometry
+    co = np.empty(len(wall.data.vertices) * 3, np.float32)
+    wall.data.vertices.foreach_get("co", co)
+    m = np.asarray(wall.matrix_world)
+    world = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    expect_world = geom.vertices @ model.transform[:3, :3].T + model.transform[:3, 3]
+    np.testing.assert_allclose(world, expect_world, atol=1e-4)
+    assert len(wall.data.polygons) == len(geom.faces)
+    # a second run replaces the model instead of adding to it
+    n_objects = len(bpy.data.objects)
+    assert bpy.ops.indoor.reconstruct(method="manhattan", seed=0) == {"FINISHED"}
+    assert len(bpy.data.objects) == n_objects
+    assert sorted(o.name for o in colls["Spaces"].objects) == sorted(
+        s.name or s.id for s in model.shapes if s.active and s.type.value == "interior")
+
+
+def test_reconstruct_failure_reports_and_leaves_scene_unchanged(scene, addon, rng):
+    eng = bu.engine_module()
+    flat = np.column_stack([rng.uniform(0, 5, 3000), rng.uniform(0, 5, 3000), np.zeros(3000)])
+    obj = addon.bridge.point_cloud_to_object(eng.PointCloud(xyz=flat), name="floor_only")
+    bpy.context.view_layer.objects.active = obj
+    before = bu.scene_state()
+    with pytest.raises(RuntimeError, match="floor_only"):
+        bpy.ops.indoor.reconstruct(method="manhattan")
+    assert bu.scene_state() == before
+    assert "Indoor Model.json" not in bpy.data.texts
