@@ -16,9 +16,11 @@ Method (per storey)
    previous one — the two faces of a wall, or a shelf face reaching the ceiling in front
    of an occluded corner, do not stop the wall short of the corner. This closes corners
    and T-junctions left open by occlusion and by door openings at wall ends. The end goes
-   ``snap_overshoot`` past the last crossing so noding sees it. An end that meets nothing
-   stays where the data put it: a dangling edge, which polygonize drops, so it makes no
-   cell. Door openings in the middle of a wall are inside its segment (the segment spans
+   ``snap_overshoot`` past the last crossing so noding sees it. An end that meets no line
+   within ``max_extension`` goes on (``far_extension``) to the first wall *segment* its
+   ray crosses at any distance — a wall seen only in a short piece behind furniture still
+   closes its room; otherwise it stays where the data put it: a dangling edge, which
+   polygonize drops, so it makes no cell. Door openings in the middle of a wall are inside its segment (the segment spans
    the support's min..max), so rooms stay closed.
 3. *Arrangement.* The segments and the building's extent (the x, y box of the storey's
    points grown by ``extent_margin``) are noded (``shapely.unary_union``) and polygonized
@@ -294,46 +296,66 @@ def wall_segments(walls: Sequence[Plane], params: CellParams = CellParams()) -> 
     """
     segs = np.array([w.segment for w in walls], dtype=np.float64).reshape(-1, 2, 2)
     dirs = np.array([w.direction for w in walls]).reshape(-1, 2)
-    out = segs.copy()
-    m = len(walls)
-    for i in range(m):
-        for end in (0, 1):
-            p = segs[i, end]
-            d = dirs[i] if end == 1 else -dirs[i]
-            # make d point outwards of the segment
-            other = segs[i, 1 - end]
-            if np.dot(p - other, d) < 0:
-                d = -d
-            hits = []  # (distance along the ray, crosses the other segment proper?)
-            for j in range(m):
-                if j == i:
-                    continue
-                q0, q1 = segs[j]
-                e = q1 - q0
-                denom = d[0] * e[1] - d[1] * e[0]
-                if abs(denom) < _PARALLEL_EPS:
-                    continue
-                w = q0 - p
-                s = (w[0] * e[1] - w[1] * e[0]) / denom  # along the ray
-                t = (w[0] * d[1] - w[1] * d[0]) / denom  # along the other segment, 0..1
-                if s < -params.snap_overshoot or s > params.max_extension:
-                    continue  # behind the end (the segment already crosses it) or too far
-                ln = np.linalg.norm(e)
-                if t < -params.max_extension / max(ln, 1e-9) or t > 1 + params.max_extension / max(ln, 1e-9):
-                    continue
-                inside = params.snap_overshoot / max(ln, 1e-9)
-                hits.append((s, -inside <= t <= 1 + inside))
-            best = None
-            if hits:
-                hits.sort()
-                best = hits[0][0]
-                for s_next, proper in hits[1:]:  # go on through a chain of close walls
-                    if not proper or s_next - best > params.chain_gap:
-                        break
-                    best = s_next
-            if best is not None:
-                out[i, end] = p + (best + params.snap_overshoot) * d
+    todo = [(i, end) for i in range(len(walls)) for end in (0, 1)]
+    out, left = _extend_pass(segs, segs, dirs, todo, params)
+    # ends still dangling look again, now at the extended segments (two walls whose
+    # corner only one of them reached in the first pass)
+    out, _ = _extend_pass(out, out, dirs, left, params)
     return out
+
+
+def _extend_pass(segs, targets, dirs, todo, params: CellParams):
+    """Extend the ends ``todo`` ((segment, 0|1) pairs) of ``segs`` against the segments
+    ``targets``; returns (new segments, ends that met nothing)."""
+    out = segs.copy()
+    m = len(segs)
+    left = []
+    for i, end in todo:
+        p = segs[i, end]
+        d = dirs[i]
+        other = segs[i, 1 - end]
+        if np.dot(p - other, d) < 0:  # make d point outwards of the segment
+            d = -d
+        hits = []  # (distance along the ray, crosses the other segment proper?)
+        far = None  # nearest crossing of another segment beyond max_extension
+        for j in range(m):
+            if j == i:
+                continue
+            q0, q1 = targets[j]
+            e = q1 - q0
+            denom = d[0] * e[1] - d[1] * e[0]
+            if abs(denom) < _PARALLEL_EPS:
+                continue
+            w = q0 - p
+            s = (w[0] * e[1] - w[1] * e[0]) / denom  # along the ray
+            t = (w[0] * d[1] - w[1] * d[0]) / denom  # along the other segment, 0..1
+            ln = np.linalg.norm(e)
+            if s > params.max_extension:
+                tol = params.far_tolerance / max(ln, 1e-9)
+                if -tol <= t <= 1 + tol and (far is None or s < far):
+                    far = s
+                continue
+            if s < -params.snap_overshoot:
+                continue  # behind the end: the segment already crosses that line
+            if t < -params.max_extension / max(ln, 1e-9) or t > 1 + params.max_extension / max(ln, 1e-9):
+                continue
+            inside = params.snap_overshoot / max(ln, 1e-9)
+            hits.append((s, -inside <= t <= 1 + inside))
+        best = None
+        if hits:
+            hits.sort()
+            best = hits[0][0]
+            for s_next, proper in hits[1:]:  # go on through a chain of close walls
+                if not proper or s_next - best > params.chain_gap:
+                    break
+                best = s_next
+        if best is None and far is not None and params.far_extension:
+            best = far
+        if best is not None:
+            out[i, end] = p + (best + params.snap_overshoot) * d
+        else:
+            left.append((i, end))
+    return out, left
 
 
 def _grid_occupancy(xy: np.ndarray, origin: np.ndarray, dims):

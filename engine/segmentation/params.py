@@ -197,6 +197,11 @@ class CellParams:
     max_extension: float = 2.0
     """A wall segment's end is extended along its line to the first other wall line it meets
     within this distance, metres; farther it stays a dangling end (no cell edge)."""
+    far_extension: bool = True
+    """An end that meets no wall line within ``max_extension`` is extended to the first
+    wall segment its ray crosses, however far (inside the extent)."""
+    far_tolerance: float = 0.05
+    """... counting a crossing within this of the other segment's ends, metres."""
     chain_gap: float = 0.6
     """... and on through further wall segments each within this of the previous crossing
     (wall faces, shelves in front of corners; rooms and corridors are wider), metres."""
