@@ -82,7 +82,13 @@ class GenericParams:
     coverage is measured near known faces, so the looser test admits little clutter)."""
     min_wall_coverage: float = 0.2
     """A cell face whose wall coverage reaches this share of its area is a seen wall."""
-    alpha_spacing_factor: float = 7.0
+    min_ceiling_area: float = 1.0
+    """Horizontal planes at least this large (m²) in a storey's upper half are its ceiling
+    levels; ceiling points for the coverage must lie near one (a door head is not a
+    ceiling)."""
+    ceiling_band: float = 0.1
+    """... within this distance, metres."""
+    alpha_spacing_factor: float = 5.0
     """r_α is raised to this many median point spacings of the thinned ceiling points when
     that is larger (sparse scans)."""
     wall_band: float = 0.6
@@ -503,6 +509,22 @@ def _storeys_of(cloud: PointCloud, labels: np.ndarray, params: GenericParams) ->
         return [Storey(0, float(lo), float(hi), "Storey 0", float(lo))]
 
 
+def _near_ceiling_levels(z: np.ndarray, planes, storey: int, z0: float, z1: float,
+                         params: "GenericParams") -> np.ndarray:
+    """(n,) bool: False for upper-half points that are far from every large horizontal
+    plane (door heads, shelf tops seen from below are not ceiling); lower-half points and
+    all points when no large plane is known stay True."""
+    mid = (z0 + z1) / 2
+    levels = [float(p.offset / p.normal[2]) for p in planes
+              if p.kind == "horizontal" and p.storey in (storey, -1) and p.area >= params.min_ceiling_area
+              and abs(p.normal[2]) > 0.5 and p.offset / p.normal[2] > mid]
+    if not levels:
+        return np.ones(len(z), bool)
+    lv = np.asarray(levels)
+    near = np.min(np.abs(z[:, None] - lv[None, :]), axis=1) <= params.ceiling_band
+    return near | (z <= mid)
+
+
 def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = None, *, rng=None,
                         progress=None, should_stop=None) -> BuildingModel:
     """Scan → model with the generic grammar and the rjMCMC search (SPEC.md §3).
@@ -581,6 +603,7 @@ def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = Non
         t1 = time.perf_counter()
         hmask = nz >= math.cos(params.coverage_angle)
         wmask = nz <= math.sin(params.coverage_angle)
+        hmask &= _near_ceiling_levels(xyz[:, 2], planes, si, st.floor_z, z_hi, params)
         cov = measure_coverage(cells, xyz[wmask], xyz[hmask],
                                shape_buffer=params.shape_buffer, r_alpha=params.r_alpha,
                                thin=params.coverage_grid, min_wall_coverage=params.min_wall_coverage,
