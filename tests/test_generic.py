@@ -61,7 +61,9 @@ def test_skew_house_end_to_end(skew_run):
 
 def test_same_seed_same_model(skew_run):
     rooms, cloud, model = skew_run
-    again = reconstruct_generic(cloud, rng=5)
+    seen = []
+    again = reconstruct_generic(cloud, rng=5, progress=lambda f, msg: seen.append(f))
+    assert seen and seen[-1] == pytest.approx(1.0) and all(b >= a - 1e-9 for a, b in zip(seen, seen[1:]))
     a = sorted(np.round(s.geometry.vertices, 9).tobytes() for s in model.spaces)
     b = sorted(np.round(s.geometry.vertices, 9).tobytes() for s in again.spaces)
     assert a == b
@@ -105,9 +107,13 @@ def test_arrange_cells_partitions_the_extent():
     assert len(arrange_cells(np.zeros((0, 3)), ext)) == 1
 
 
-def test_bad_input():
+def test_bad_input_and_cancel(skew_run):
+    from engine.errors import Cancelled
+
     with pytest.raises(EmptyCloudError):
         reconstruct_generic(PointCloud(xyz=np.zeros((10, 3))))
+    with pytest.raises(Cancelled):
+        reconstruct_generic(skew_run[1], should_stop=lambda: True)
 
 
 def test_syn_house_tls_quality():
