@@ -3,12 +3,14 @@
     .venv/bin/python scripts/demo.py --out out/demo            # bpy module (make demo)
     blender -b -P scripts/demo.py -- --out out/demo            # a real Blender >= 4.2
 
-Writes into OUT: ``scan.blend`` (the scan as a point mesh in the "Scan" collection),
-``preview.png`` (Cycles CPU or Workbench renders: a top view cut below the ceiling and an oblique view,
-side by side) and ``summary.json`` (the cloud summary, per-stage timings, versions).
+Writes into OUT: ``scan.blend`` (the scan as a point mesh in the "Scan" collection and the
+reconstructed model in "Indoor Model": Spaces, Walls, ..., hidden Cells), ``model.ifc``
+(IFC4 from the engine), ``preview.png`` (Cycles CPU or Workbench renders: a top view cut
+below the ceiling and an oblique view with the see-through spaces and walls, side by side)
+and ``summary.json`` (the cloud summary, the model report, per-stage timings, versions).
 
 Each stage is a function ``stage_<name>(state) -> dict`` that reads and extends ``state``;
-later capabilities (reconstruct, IFC export, evaluation) add stages to :data:`STAGES`.
+later capabilities (evaluation, change detection) add stages to :data:`STAGES`.
 """
 from __future__ import annotations
 
@@ -68,6 +70,9 @@ def parse_args(argv):
     p = argparse.ArgumentParser(prog="demo.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default=os.path.join(ROOT, "out", "demo"), help="output folder")
     p.add_argument("--scan", default=DEFAULT_SCAN, help="scan file (default: the bundled room scan)")
+    p.add_argument("--method", choices=("auto", "manhattan", "generic"), default="auto",
+                   help="reconstruction method")
+    p.add_argument("--seed", type=int, default=0, help="reconstruction seed")
     p.add_argument("--engine", choices=("cycles", "workbench"), default="cycles",
                    help="preview renderer: Cycles CPU shows the colour attribute; Workbench (4.5) "
                         "draws Geometry Nodes point clouds in one colour")
@@ -111,6 +116,33 @@ def stage_import(state):
     return {"object": obj.name, "vertices": len(obj.data.vertices),
             "attributes": sorted(a.name for a in obj.data.attributes if not a.name.startswith(".")),
             "cloud": summary}
+
+
+def stage_reconstruct(state):
+    """The add-on's Reconstruct operator on the imported scan (auto method, fixed seed)."""
+    import bpy
+
+    args = state["args"]
+    bpy.context.view_layer.objects.active = state["scan_object"]
+    result = bpy.ops.indoor.reconstruct(method=args.method, seed=args.seed)
+    if result != {"FINISHED"}:
+        raise SystemExit(f"demo: reconstruction failed ({result}); see the log above")
+    bridge = importlib.import_module(PACKAGE + ".blender_indoor_addon.bridge")
+    model = bridge.stored_model()
+    state["model"] = model
+    report = importlib.import_module(PACKAGE + ".engine.reconstruct").model_report(model)
+    top = bpy.context.scene.collection.children[bridge.MODEL_COLLECTION]
+    return {"method": args.method, "seed": args.seed,
+            "collections": {c.name: len(c.objects) for c in top.children},
+            "report": report}
+
+
+def stage_ifc(state):
+    """The stored model written as IFC4 (atomically) by the engine."""
+    write_ifc = importlib.import_module(PACKAGE + ".engine.ifc").write_ifc
+    path = os.path.join(state["out"], "model.ifc")
+    write_ifc(state["model"], path)
+    return {"ifc": os.path.basename(path), "bytes": os.path.getsize(path)}
 
 
 def stage_save_blend(state):
@@ -164,6 +196,8 @@ def stage_render(state):
     scene.cycles.device = "CPU"
     scene.cycles.samples = 8
     scene.cycles.use_denoising = False
+    scene.cycles.max_bounces = 2
+    scene.cycles.transparent_max_bounces = 4
     mat = bpy.data.materials.new("Preview height")
     mat.use_nodes = True
     nt = mat.node_tree
@@ -186,6 +220,16 @@ def stage_render(state):
     shading.show_cavity = False
     shading.show_shadows = False
     scene.display.render_aa = "8"
+    top = scene.collection.children.get(bridge.MODEL_COLLECTION)
+    if top is not None:  # the previews show the spaces (see-through), walls and doors with the points
+        for coll in top.children:
+            if coll.name not in ("Walls", "Doors", "Spaces"):
+                coll.hide_render = True
+        sun = bpy.data.objects.new("Preview sun", bpy.data.lights.new("Preview sun", "SUN"))
+        sun.data.energy = 3.0
+        sun.rotation_euler = (0.6, 0.2, 0.8)
+        scene.collection.objects.link(sun)
+        shading.color_type = "VERTEX" if args.engine == "workbench" else shading.color_type
     world = scene.world or bpy.data.worlds.new("World")
     scene.world = world
     world.color = (0.02, 0.02, 0.025)
@@ -207,6 +251,9 @@ def stage_render(state):
     aspect_top = size[0] / max(size[1], 1e-6)
     cam_top.data.ortho_scale = 1.08 * max(size[0], size[1])
     scene.render.resolution_x, scene.render.resolution_y = int(h * min(max(aspect_top, 0.5), 2.0)), h
+    spaces = top.children.get("Spaces") if top is not None else None
+    if spaces is not None:  # the top view shows the plan: no see-through boxes over it
+        spaces.hide_render = True
     paths.append(os.path.join(state["out"], ".preview_top.png"))
     t = time.perf_counter()
     _render_view(scene, cam_top, paths[-1])
@@ -223,6 +270,8 @@ def stage_render(state):
     cam_ob.data.clip_start = 0.1
     cam_ob.data.clip_end = 10 * radius
     scene.render.resolution_x, scene.render.resolution_y = int(h * 4 / 3), h
+    if spaces is not None:
+        spaces.hide_render = False
     paths.append(os.path.join(state["out"], ".preview_oblique.png"))
     t = time.perf_counter()
     _render_view(scene, cam_ob, paths[-1])
@@ -267,8 +316,8 @@ def _join_images(paths, dest, atomic_path):
             bpy.data.images.remove(im)
 
 
-STAGES = [("setup", stage_setup), ("import", stage_import), ("render", stage_render),
-          ("save_blend", stage_save_blend)]
+STAGES = [("setup", stage_setup), ("import", stage_import), ("reconstruct", stage_reconstruct),
+          ("ifc", stage_ifc), ("render", stage_render), ("save_blend", stage_save_blend)]
 """(name, function) in order; each returns a JSON-ready dict stored under its name."""
 
 
@@ -308,7 +357,7 @@ def main(argv=None):
             pkg.unregister()
     s = summary["stages"]["import"]
     logging.getLogger("indoor.demo").info(
-        "demo: %d points -> %s (scan.blend, preview.png, summary.json) in %.1f s",
+        "demo: %d points -> %s (scan.blend, model.ifc, preview.png, summary.json) in %.1f s",
         s["vertices"], args.out, summary["timings_s"]["total"])
     return 0
 

@@ -24,12 +24,17 @@ def test_demo_writes_blend_summary_and_preview(tmp_path):
     proc = _run(os.path.join(ROOT, "scripts", "demo.py"),
                 ["--out", str(out), "--resolution", "120", "--engine", "workbench"])
     assert proc.returncode == 0, proc.stderr[-3000:]
-    assert sorted(os.listdir(out)) == ["preview.png", "scan.blend", "summary.json"]
+    assert sorted(os.listdir(out)) == ["model.ifc", "preview.png", "scan.blend", "summary.json"]
     summary = json.loads((out / "summary.json").read_text())
     imp = summary["stages"]["import"]
     assert imp["vertices"] == imp["cloud"]["points"] == 112586
     assert imp["cloud"]["source"] == os.path.join("tests", "data", "room_scan1.pcd")
-    assert set(summary["timings_s"]) >= {"setup", "import", "render", "save_blend", "total"}
+    assert set(summary["timings_s"]) >= {"setup", "import", "reconstruct", "ifc", "render", "save_blend",
+                                         "total"}
+    rec = summary["stages"]["reconstruct"]
+    assert rec["collections"]["Spaces"] == rec["report"]["summary"]["spaces"] >= 1
+    with open(out / "model.ifc", encoding="utf-8", errors="replace") as f:
+        assert f.read(13) == "ISO-10303-21;"
     with open(out / "preview.png", "rb") as f:
         assert f.read(8) == b"\x89PNG\r\n\x1a\n"
     with open(out / "scan.blend", "rb") as f:
