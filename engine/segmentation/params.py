@@ -211,7 +211,7 @@ class CellParams:
     """The building's extent (the box around the storey's points) is grown by this, metres."""
     min_cell_area: float = 0.02
     """Slivers below this area (m²) are merged into their longest-shared-edge neighbour."""
-    min_wall_area: float = 0.5
+    min_wall_area: float = 1.0
     """Wall planes with less covered area (m²) are not cut into the floor."""
     min_wall_height_fraction: float = 0.5
     """Wall planes whose support spans less than this share of the height of the ceiling

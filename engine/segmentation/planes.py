@@ -219,8 +219,9 @@ def _noise_band(xyz, labels, storey: Storey, params: PlaneParams):
 
 
 def _bent_half(normal, P, inl, params: PlaneParams):
-    """When the two halves (along the wall) of a wall plane's inliers have directions more
-    than ``max_bend`` apart, the mask of the larger half; else None."""
+    """When the two halves of the extent (along the wall) of a wall plane's inliers give
+    directions more than ``max_bend`` apart, the mask of the inliers of the larger half;
+    else None."""
     idx = np.nonzero(inl)[0]
     if len(idx) < 2 * params.min_points:
         return None
@@ -228,8 +229,10 @@ def _bent_half(normal, P, inl, params: PlaneParams):
     t = P[idx, :2] @ u
     if t.max() - t.min() < 2 * params.min_extent:
         return None
-    cut = np.median(t)
+    cut = 0.5 * (t.min() + t.max())  # halves of the extent: a chord's two clusters separate
     a, b = idx[t <= cut], idx[t > cut]
+    if min(len(a), len(b)) < max(params.min_points // 2, 3):
+        return None
     na, _ = _fit("wall", P[a])
     nb, _ = _fit("wall", P[b])
     if abs(float(na @ nb)) >= np.cos(params.max_bend):
