@@ -5,7 +5,8 @@
 
 For each scan: ``engine.reconstruct.convert_file`` writes ``DIR/<name>.ifc`` and
 ``DIR/<name>.json``; the add-on's Import scan operator builds the point mesh on a fresh
-scene, saved as ``DIR/<name>.blend``. A bad file is reported on one line and the batch goes
+scene, the bridge adds the model (collections Spaces, Walls, ..., hidden Cells), saved as
+``DIR/<name>.blend``. A bad file is reported on one line and the batch goes
 on; ``DIR/batch.json`` lists what succeeded and what failed. Exit code 0 only when every
 scan succeeded.
 """
@@ -56,7 +57,7 @@ def parse_args(argv):
 
 
 def convert_one(pkg, scan, args):
-    """IFC + JSON through the engine, then the .blend with the scan's point mesh."""
+    """IFC + JSON through the engine, then the .blend with the scan's point mesh and the model."""
     import bpy
 
     reconstruct = importlib.import_module(PACKAGE + ".engine.reconstruct")
@@ -71,6 +72,8 @@ def convert_one(pkg, scan, args):
     res = bpy.ops.indoor.import_scan(filepath=os.path.abspath(scan))
     if res != {"FINISHED"}:
         raise RuntimeError(f"{scan}: import into Blender failed")
+    bridge = importlib.import_module(PACKAGE + ".blender_indoor_addon.bridge")
+    bridge.model_to_objects(result.model, scene=bpy.context.scene)
     name = os.path.splitext(os.path.basename(scan))[0]
     blend = os.path.join(args.out, name + ".blend")
     with atomic_path(blend, suffix=".blend") as tmp:
