@@ -25,6 +25,7 @@ def register():
         bpy.utils.register_class(cls)
     bpy.types.Scene.indoor = bpy.props.PointerProperty(type=props.INDOOR_PG_settings)
     bpy.types.TOPBAR_MT_file_import.append(operators.menu_import)
+    bpy.types.TOPBAR_MT_file_export.append(operators.menu_export)
     _registered = True
 
 
@@ -33,6 +34,7 @@ def unregister():
     if not _registered:
         return
     bpy.types.TOPBAR_MT_file_import.remove(operators.menu_import)
+    bpy.types.TOPBAR_MT_file_export.remove(operators.menu_export)
     if hasattr(bpy.types.Scene, "indoor"):
         del bpy.types.Scene.indoor
     for cls in reversed(CLASSES):

@@ -11,7 +11,7 @@ import time
 
 import bpy
 from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
-from bpy_extras.io_utils import ImportHelper
+from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..engine.errors import IndoorError
 from . import bridge
@@ -19,7 +19,8 @@ from .props import METHOD_ITEMS
 
 log = logging.getLogger(__name__)
 
-__all__ = ["INDOOR_OT_import_scan", "INDOOR_OT_reconstruct", "SCAN_EXTENSIONS", "CLASSES", "menu_import"]
+__all__ = ["INDOOR_OT_import_scan", "INDOOR_OT_reconstruct", "INDOOR_OT_export_ifc", "SCAN_EXTENSIONS",
+           "CLASSES", "menu_import", "menu_export"]
 
 SCAN_EXTENSIONS = (".ply", ".pcd", ".e57", ".las", ".laz", ".pts", ".xyz", ".txt", ".csv")
 """File extensions the Import scan file browser shows (the engine decides what it reads)."""
@@ -178,10 +179,47 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class INDOOR_OT_export_ifc(bpy.types.Operator, ExportHelper):
+    """Write the reconstructed model as IFC (spaces, walls, doors, slabs, topology)"""
+
+    bl_idname = "indoor.export_ifc"
+    bl_label = "Export IFC"
+    bl_options = {"REGISTER"}
+
+    filename_ext = ".ifc"
+    filter_glob: StringProperty(default="*.ifc", options={"HIDDEN"})
+    schema: EnumProperty(name="Schema", items=(("IFC4", "IFC4", ""), ("IFC2X3", "IFC2X3", "")),
+                         default="IFC4")
+
+    @classmethod
+    def poll(cls, context):
+        return bpy.data.texts.get(bridge.MODEL_TEXT) is not None
+
+    def execute(self, context):
+        from ..engine.ifc import write_ifc  # the engine is imported on first use
+
+        try:
+            model = bridge.stored_model()
+            if model is None:
+                self.report({"ERROR"}, "no reconstructed model in this file: run Reconstruct first")
+                return {"CANCELLED"}
+            path = write_ifc(model, bpy.path.abspath(self.filepath), schema=self.schema)
+        except IndoorError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Wrote {path}")
+        return {"FINISHED"}
+
+
 def menu_import(self, context):
     """File ▸ Import entry."""
     self.layout.operator(INDOOR_OT_import_scan.bl_idname,
                          text="Indoor Scan (" + " ".join(SCAN_EXTENSIONS) + ")")
 
 
-CLASSES = (INDOOR_OT_import_scan, INDOOR_OT_reconstruct)
+def menu_export(self, context):
+    """File ▸ Export entry."""
+    self.layout.operator(INDOOR_OT_export_ifc.bl_idname, text="Indoor Model (.ifc)")
+
+
+CLASSES = (INDOOR_OT_import_scan, INDOOR_OT_reconstruct, INDOOR_OT_export_ifc)

@@ -5,7 +5,7 @@ import bpy
 
 from . import bridge
 
-__all__ = ["INDOOR_PT_import_scan", "INDOOR_PT_reconstruct", "CLASSES"]
+__all__ = ["INDOOR_PT_import_scan", "INDOOR_PT_reconstruct", "INDOOR_PT_export", "CLASSES"]
 
 
 class _IndoorPanel:
@@ -73,4 +73,17 @@ class INDOOR_PT_reconstruct(_IndoorPanel, bpy.types.Panel):
                 col.label(text=f"{coll.name}: {len(coll.objects)}", icon="OUTLINER_COLLECTION")
 
 
-CLASSES = (INDOOR_PT_import_scan, INDOOR_PT_reconstruct)
+class INDOOR_PT_export(_IndoorPanel, bpy.types.Panel):
+    """Export the reconstructed model."""
+
+    bl_idname = "INDOOR_PT_export"
+    bl_label = "Export"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.operator("indoor.export_ifc", icon="EXPORT")
+        if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
+            layout.label(text="Reconstruct a scan first", icon="INFO")
+
+
+CLASSES = (INDOOR_PT_import_scan, INDOOR_PT_reconstruct, INDOOR_PT_export)

@@ -60,6 +60,9 @@ def _registered_state(addon):
         "settings": addon.props.INDOOR_PG_settings.is_registered,
         "scene_prop": hasattr(bpy.types.Scene, "indoor"),
         "menu": addon.operators.menu_import in getattr(draw, "_draw_funcs", []),
+        "export_menu": addon.operators.menu_export in getattr(bpy.types.TOPBAR_MT_file_export.draw,
+                                                              "_draw_funcs", []),
+        "export_op": hasattr(bpy.types, "INDOOR_OT_export_ifc"),
     }
 
 
@@ -324,7 +327,7 @@ def test_object_to_cloud_round_trips_the_import(scene, addon, rng):
     np.testing.assert_array_equal(back.offset, cloud.offset)
 
 
-def test_reconstruct_builds_collections_from_the_model(scene, addon, office_scan):
+def test_reconstruct_builds_collections_from_the_model(scene, addon, office_scan, tmp_path):
     obj = addon.bridge.point_cloud_to_object(office_scan.cloud, name="office")
     bpy.context.view_layer.objects.active = obj
     assert bpy.ops.indoor.reconstruct(method="manhattan", seed=0) == {"FINISHED"}
@@ -353,6 +356,14 @@ def test_reconstruct_builds_collections_from_the_model(scene, addon, office_scan
     expect_world = geom.vertices @ model.transform[:3, :3].T + model.transform[:3, 3]
     np.testing.assert_allclose(world, expect_world, atol=1e-4)
     assert len(wall.data.polygons) == len(geom.faces)
+    # Export IFC writes the stored model; the file re-opens with one IfcSpace per interior space
+    ifc_path = str(tmp_path / "office.ifc")
+    assert bpy.ops.indoor.export_ifc(filepath=ifc_path) == {"FINISHED"}
+    import ifcopenshell
+
+    f = ifcopenshell.open(ifc_path)
+    assert len(f.by_type("IfcWall")) == n_walls
+    assert len([s for s in f.by_type("IfcSpace")]) >= n_rooms
     # a second run replaces the model instead of adding to it
     n_objects = len(bpy.data.objects)
     assert bpy.ops.indoor.reconstruct(method="manhattan", seed=0) == {"FINISHED"}
@@ -371,3 +382,4 @@ def test_reconstruct_failure_reports_and_leaves_scene_unchanged(scene, addon, rn
         bpy.ops.indoor.reconstruct(method="manhattan")
     assert bu.scene_state() == before
     assert "Indoor Model.json" not in bpy.data.texts
+    assert not bpy.ops.indoor.export_ifc.poll()  # nothing to export
