@@ -145,8 +145,8 @@ def run(out_dir: str, quick: bool) -> dict:
 
     from engine.evaluation import evaluate
     from engine.grammar.coverage import cellset_from_polygons, measure_coverage
-    from engine.grammar.generic import GenericParams, arrange_cells, reconstruct_generic, wall_lines
-    from engine.segmentation import classify_points, detect_storeys, estimate_normals, voxel_downsample
+    from engine.grammar.generic import GenericParams, _working_cloud, arrange_cells, reconstruct_generic, wall_lines
+    from engine.segmentation import classify_points, detect_storeys, estimate_normals
     from engine.segmentation.planes import extract_planes
     from engine.synthetic import preset
 
@@ -173,7 +173,7 @@ def run(out_dir: str, quick: bool) -> dict:
     log.info("end to end: %s", end_to_end)
     # the same cells again for the speed-up measurement
     gp = GenericParams()
-    work = voxel_downsample(cloud, gp.working_voxel)[0]
+    work = _working_cloud(cloud, gp)
     if work.normals is None:
         work = estimate_normals(work, gp.normals)
     labels = classify_points(work, gp.classify)

@@ -67,6 +67,9 @@ class GenericParams:
 
     working_voxel: float = 0.02
     """Voxel of the working cloud used for normals and planes, metres (0: no thinning)."""
+    max_working_points: int = 250_000
+    """The working voxel grows until the working cloud has about this many points (0: no
+    bound) — the scans' density is far above what coverage and planes need."""
     shape_buffer: float = 0.05
     """δ: points within this of a face belong to it, metres (above the noise, below half a
     wall's thickness)."""
@@ -509,6 +512,21 @@ def _storeys_of(cloud: PointCloud, labels: np.ndarray, params: GenericParams) ->
         return [Storey(0, float(lo), float(hi), "Storey 0", float(lo))]
 
 
+def _working_cloud(cloud: PointCloud, params: "GenericParams") -> PointCloud:
+    """Voxel-thinned working cloud of at most about ``params.max_working_points`` points:
+    the voxel grows with the square root of the excess (the points lie on surfaces)."""
+    from ..segmentation import voxel_downsample
+
+    if params.working_voxel <= 0:
+        return cloud
+    work = voxel_downsample(cloud, params.working_voxel)[0]
+    if params.max_working_points and len(work) > params.max_working_points:
+        voxel = params.working_voxel * math.sqrt(len(work) / params.max_working_points)
+        work = voxel_downsample(cloud, voxel)[0]
+        log.info("working cloud: voxel %.3f m -> %d points", voxel, len(work))
+    return work
+
+
 def _near_ceiling_levels(z: np.ndarray, planes, storey: int, z0: float, z1: float,
                          params: "GenericParams") -> np.ndarray:
     """(n,) bool: False for upper-half points that are far from every large horizontal
@@ -565,7 +583,7 @@ def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = Non
         raise EmptyCloudError(f"the cloud has {len(cloud)} points; at least 100 are needed", cloud.source or None)
     timings = {}
     t0 = time.perf_counter()
-    work = voxel_downsample(cloud, params.working_voxel)[0] if params.working_voxel > 0 else cloud
+    work = _working_cloud(cloud, params)
     if work.normals is None:
         p(0.02, "normals")
         work = estimate_normals(work, params.normals)
