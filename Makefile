@@ -17,7 +17,7 @@ bench: setup
 wheels: setup
 	.venv/bin/python scripts/extension.py wheels
 
-extension: setup
+extension: wheels
 	.venv/bin/python scripts/extension.py build --out dist
 
 clean:

@@ -19,12 +19,20 @@ def _pytest_args():
     return argv[1:]
 
 
-def _inside_blender_binary():
-    return os.path.basename(sys.executable).lower().startswith("python") is False or "--" in sys.argv
+def _private_blender_user_dirs():
+    """Point Blender's user folders at a throwaway directory so no test run writes to the
+    user's ~/.config/blender (extensions cache, preferences)."""
+    import tempfile
+
+    base = tempfile.mkdtemp(prefix="indoor-tests-blender-")
+    for kind in ("RESOURCES", "CONFIG", "SCRIPTS", "EXTENSIONS", "DATAFILES"):
+        os.environ.setdefault("BLENDER_USER_" + kind, os.path.join(base, kind.lower()))
+    return base
 
 
 def main():
     args = _pytest_args()
+    _private_blender_user_dirs()
     # Under a real Blender binary its own Python lacks pytest and the engine's packages:
     # borrow the project's .venv (Blender's bundled numpy stays first on the path).
     venv_site = os.path.join(ROOT, ".venv", "lib", "python%d.%d" % sys.version_info[:2], "site-packages")
@@ -37,12 +45,13 @@ def main():
 
     os.chdir(ROOT)
     code = pytest.main(["-p", "no:cacheprovider", "-p", "no:dash", *args])
-    sys.stdout.flush()
     return int(code)
 
 
 if __name__ == "__main__":
     code = main()
-    if code != 0:
-        # inside Blender --python-exit-code turns an uncaught exception into the exit code
-        raise SystemExit(code)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # Exit at once with pytest's code: the bpy module can hang at interpreter shutdown when
+    # an add-on class is left registered, and Blender's own exit would hide the code.
+    os._exit(code)
