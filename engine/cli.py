@@ -147,9 +147,10 @@ def _commands():
     """Parser builders, one per subcommand, in the order ``--help`` lists them."""
     from .change.cli import add_changes
     from .evaluation.cli import add_evaluate
+    from .segmentation.cli import add_segment
     from .synthetic.cli import add_synth
 
-    return [add_info, add_convert, add_evaluate, add_changes, add_synth]
+    return [add_info, add_convert, add_evaluate, add_changes, add_synth, add_segment]
 
 
 def build_parser() -> argparse.ArgumentParser:

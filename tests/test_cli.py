@@ -13,7 +13,7 @@ def test_help_lists_every_command(capsys):
         main(["--help"])
     assert e.value.code == 0
     out = capsys.readouterr().out
-    for cmd in ("info", "convert", "evaluate", "changes", "synth"):
+    for cmd in ("info", "convert", "evaluate", "changes", "synth", "segment"):
         assert cmd in out
 
 
