@@ -120,6 +120,7 @@ def test_bad_input_and_cancel(skew_run):
     ("syn_house", "tls", 0.95, 0.005),
     ("hexagon_hall", "tls", 0.95, 0.005),
     ("hexagon_hall", "mobile", 0.90, 0.025),
+    ("office_mw", "tls", 0.99, 0.005),
 ])
 def test_preset_quality(name, noise, min_cc, max_acc):
     """Done-when: non-Manhattan presets (slanted walls / 60° walls, furniture, several

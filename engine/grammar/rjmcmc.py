@@ -33,8 +33,8 @@ Departures from SPEC.md (recorded here as asked):
 
 * The prior has a second condition (``RjmcmcParams.connected_cover``): the cells of a
   space that lie under the ceiling (coverage ratio ≥ ``cover_ratio``) must be connected
-  through shared faces, i.e. a space is one region under one ceiling, and it needs at least
-  one such cell. Without it the product of per-space coverage ratios in ``P_L`` (each a
+  through shared faces at least ``link_length`` long, i.e. a space is one region under one
+  ceiling, and it needs at least one such cell. Without it the product of per-space coverage ratios in ``P_L`` (each a
   little below 1 on real data) rewards gluing neighbouring rooms together through the
   small uncovered cells where walls meet (or through a wall cell), which the scope width
   alone (one oriented box per space) cannot see. Uncovered cells may still join a space at
@@ -108,6 +108,9 @@ class RjmcmcParams:
     cover_ratio: float = 0.5
     """A cell is *covered* when this share of its footprint is under the ceiling's alpha
     shape."""
+    link_length: float = 0.15
+    """Covered cells of a space must connect through faces at least this long, metres
+    (about half a wall's thickness)."""
     beta: float = 0.0
     """Convergence factor β: accept when α > U, U ~ Uniform[β, 1] (0: plain MH)."""
     iterations: int = 0
@@ -189,6 +192,11 @@ class SpaceSearch:
         self._width_cache: dict = {}
         self._terms_cache: dict = {}
         self.covered = coverage.top >= params.cover_ratio * np.maximum(coverage.area, 1e-12)
+        # covered cells link through faces longer than a wall is thick: a scrap of a wall
+        # cell (short faces, too few wall points to block the ceiling's alpha shape) must
+        # not join two rooms
+        self.long_nbrs = [[o for o, fi in lst if cells.faces[fi].length >= params.link_length]
+                          for lst in cells.neighbours()]
         self.space_of = np.full(n, -1, dtype=np.int64)
         self.spaces: dict[int, frozenset] = {}
         self.stats: dict[int, tuple] = {}
@@ -239,7 +247,7 @@ class SpaceSearch:
         stack = [left.pop()]
         while stack:
             c = stack.pop()
-            for o in self.nbrs[c]:
+            for o in self.long_nbrs[c]:
                 if o in left:
                     left.discard(o)
                     stack.append(o)
