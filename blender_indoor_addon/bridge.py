@@ -36,6 +36,22 @@ __all__ = [
     "model_to_objects",
     "model_objects",
     "stored_model",
+    "push_history",
+    "history_length",
+    "restore_previous",
+    "apply_edit",
+    "shape_ids_of",
+    "to_model_frame",
+    "graph_to_curve",
+    "remove_graph",
+    "graph_shown",
+    "path_to_curve",
+    "spline_points",
+    "refresh_overlays",
+    "patches_to_objects",
+    "change_overlay",
+    "set_change_colors",
+    "evaluation_overlay",
 ]
 
 SCAN_COLLECTION = "Scan"
@@ -669,3 +685,496 @@ def stored_model():
     if text is None or not text.as_string().strip():
         return None
     return BuildingModel.from_json(text.as_string())
+
+
+# --------------------------------------------------------------------------- edit history
+HISTORY_TEXT = "Indoor Model history.json"
+"""Text datablock with the models replaced by edits (a JSON list of model JSON strings)."""
+HISTORY_DEPTH = 20
+"""How many previous models :func:`push_history` keeps."""
+
+
+def _history() -> list:
+    import json
+
+    text = bpy.data.texts.get(HISTORY_TEXT)
+    if text is None or not text.as_string().strip():
+        return []
+    return list(json.loads(text.as_string()))
+
+
+def _write_history(items: list) -> None:
+    import json
+
+    text = bpy.data.texts.get(HISTORY_TEXT) or bpy.data.texts.new(HISTORY_TEXT)
+    text.clear()
+    text.write(json.dumps(items[-HISTORY_DEPTH:]))
+
+
+def push_history(model_json: str) -> int:
+    """Keep a model's JSON (before an edit) in the .blend; returns the history length."""
+    items = _history()
+    items.append(model_json)
+    _write_history(items)
+    return min(len(items), HISTORY_DEPTH)
+
+
+def history_length() -> int:
+    """Number of previous models :func:`restore_previous` can go back to."""
+    return len(_history())
+
+
+def restore_previous(scene=None):
+    """Rebuild the objects from the model before the last edit (and drop it from the history).
+
+    Returns the restored :class:`~engine.model.BuildingModel`, or None when there is no
+    history. This is the add-on's own "restore" path, independent of Blender's undo.
+    """
+    from ..engine.model import BuildingModel
+
+    items = _history()
+    if not items:
+        return None
+    model = BuildingModel.from_json(items[-1])
+    model_to_objects(model, scene=scene)
+    _write_history(items[:-1])
+    return model
+
+
+def apply_edit(model, new_model, *, scene=None) -> dict:
+    """Replace the stored ``model`` by ``new_model`` (an edit's result): the old JSON goes to
+    the history, the shape objects are rebuilt and shown overlays of the topology refreshed;
+    a drawn path (stale now) is removed. Returns :func:`model_to_objects`'s dict."""
+    scene = scene or bpy.context.scene
+    old_json = model.to_json()
+    by_coll = model_to_objects(new_model, scene=scene)
+    push_history(old_json)
+    refresh_overlays(new_model, scene=scene)
+    return by_coll
+
+
+def shape_ids_of(objects) -> list[str]:
+    """The shape ids (``indoor_shape_id``) of the given objects that carry one, in order."""
+    return [str(o[SHAPE_PROP]) for o in objects if o is not None and SHAPE_PROP in o]
+
+
+def model_matrix(model):
+    """``model.transform`` as a mathutils Matrix (model frame → scene frame, offset removed)."""
+    from mathutils import Matrix
+
+    return Matrix(np.asarray(model.transform, dtype=np.float64).tolist())
+
+
+def to_model_frame(model, point) -> np.ndarray:
+    """(3,) float64: a scene-frame point (e.g. the 3D cursor, metres) in the model frame."""
+    t = np.asarray(model.transform, dtype=np.float64)
+    p = np.append(np.asarray(point, dtype=np.float64).reshape(3), 1.0)
+    return (np.linalg.inv(t) @ p)[:3]
+
+
+# --------------------------------------------------------------------------- overlays: curves
+TOPOLOGY_COLLECTION = "Topology"
+"""Collection of the graph and path curves."""
+GRAPH_OBJECTS = {"adjacency": "Adjacency graph", "connectivity": "Connectivity graph"}
+"""Curve object of each graph kind."""
+PATH_OBJECT = "Shortest path"
+"""Curve object of the last shortest path."""
+OVERLAY_COLORS = {"adjacency": (0.95, 0.75, 0.15, 1.0), "connectivity": (0.15, 0.85, 0.35, 1.0),
+                  "path": (0.95, 0.15, 0.15, 1.0)}
+"""Linear RGBA of the curves."""
+CURVE_BEVEL = {"adjacency": 0.03, "connectivity": 0.05, "path": 0.08}
+"""Tube radius of each curve kind, metres."""
+OVERLAY_MATERIAL = "Indoor Overlay"
+"""Material of overlays: emits the object's colour (Object Info), so one material serves all."""
+
+
+def overlay_material():
+    """The material of overlay objects: colour = the object's ``color`` (made once per file)."""
+    mat = bpy.data.materials.get(OVERLAY_MATERIAL)
+    if mat is not None and mat.library is None:
+        return mat
+    mat = bpy.data.materials.new(OVERLAY_MATERIAL)
+    mat.use_nodes = True
+    nt = mat.node_tree
+    bsdf = nt.nodes.get("Principled BSDF")
+    info = nt.nodes.new("ShaderNodeObjectInfo")
+    info.location = (-300, 200)
+    nt.links.new(info.outputs["Color"], bsdf.inputs["Base Color"])
+    nt.links.new(info.outputs["Color"], bsdf.inputs["Emission Color"])
+    bsdf.inputs["Emission Strength"].default_value = 0.5
+    nt.links.new(info.outputs["Alpha"], bsdf.inputs["Alpha"])
+    if hasattr(mat, "surface_render_method"):  # 4.2+
+        mat.surface_render_method = "BLENDED"
+    return mat
+
+
+def _remove_object(name: str) -> None:
+    obj = bpy.data.objects.get(name)
+    if obj is None:
+        return
+    data = obj.data
+    bpy.data.objects.remove(obj, do_unlink=True)
+    if data is not None and data.users == 0:
+        if isinstance(data, bpy.types.Curve):
+            bpy.data.curves.remove(data)
+        elif isinstance(data, bpy.types.Mesh):
+            bpy.data.meshes.remove(data)
+
+
+def polylines_to_curve(name: str, lines, *, kind: str, matrix=None, collection: str = TOPOLOGY_COLLECTION,
+                       scene=None):
+    """One curve object ``name`` holding a POLY spline per polyline (replaces an old one).
+
+    Parameters
+    ----------
+    lines : list of (k, 3) float64
+        Point sequences, metres (model frame when ``matrix`` maps it to the scene).
+    kind : str
+        Key of :data:`OVERLAY_COLORS` / :data:`CURVE_BEVEL`.
+    matrix : mathutils.Matrix, optional
+        The object's world matrix.
+    """
+    scene = scene or bpy.context.scene
+    _remove_object(name)
+    coll = ensure_collection(collection, scene)
+    cu = bpy.data.curves.new(name, "CURVE")
+    cu.dimensions = "3D"
+    cu.bevel_depth = CURVE_BEVEL.get(kind, 0.03)
+    cu.bevel_resolution = 2
+    for line in lines:
+        pts = np.asarray(line, dtype=np.float64).reshape(-1, 3)
+        sp = cu.splines.new("POLY")
+        sp.points.add(len(pts) - 1)
+        co = np.column_stack([pts, np.ones(len(pts))]).astype(np.float32)
+        sp.points.foreach_set("co", co.ravel())
+    cu.materials.append(overlay_material())
+    obj = bpy.data.objects.new(name, cu)
+    if matrix is not None:
+        obj.matrix_world = matrix
+    obj.color = OVERLAY_COLORS.get(kind, (1.0, 1.0, 1.0, 1.0))
+    obj["indoor_overlay"] = kind
+    coll.objects.link(obj)
+    return obj
+
+
+def spline_points(obj) -> list[np.ndarray]:
+    """The points of each spline of a curve object: list of (k, 3) float64 (object frame)."""
+    out = []
+    for sp in obj.data.splines:
+        co = np.empty(len(sp.points) * 4, dtype=np.float32)
+        sp.points.foreach_get("co", co)
+        out.append(co.reshape(-1, 4)[:, :3].astype(np.float64))
+    return out
+
+
+def graph_to_curve(model, kind: str, *, scene=None):
+    """Draw the space-level ``kind`` graph ("adjacency" or "connectivity") of ``model``: a
+    straight segment between the centres of every pair of related spaces (object
+    :data:`GRAPH_OBJECTS` ``[kind]`` in the "Topology" collection). The edges are kept as
+    the object's ``indoor_edges`` property ("a|b" per spline, in spline order)."""
+    from ..engine.topology import space_graph
+
+    g = space_graph(model, kind, "space")
+    edges = sorted(tuple(sorted((a, b))) for a, b in g.edges)
+    lines = [np.array([model[a].centroid, model[b].centroid]) for a, b in edges]
+    obj = polylines_to_curve(GRAPH_OBJECTS[kind], lines, kind=kind, matrix=model_matrix(model), scene=scene)
+    obj["indoor_edges"] = [f"{a}|{b}" for a, b in edges]
+    return obj
+
+
+def remove_graph(kind: str) -> None:
+    """Remove the drawn ``kind`` graph (no-op when it is not drawn)."""
+    _remove_object(GRAPH_OBJECTS[kind])
+
+
+def graph_shown(kind: str) -> bool:
+    """True when the ``kind`` graph is drawn."""
+    return bpy.data.objects.get(GRAPH_OBJECTS[kind]) is not None
+
+
+def path_to_curve(model, path, *, scene=None):
+    """Draw a :class:`~engine.topology.PathResult`: a polyline through the centres of its
+    spaces, passing through each door (``via``) between them (object :data:`PATH_OBJECT`)."""
+    pts = []
+    for i, sid in enumerate(path.spaces):
+        pts.append(model[sid].centroid)
+        if i < len(path.vias) and path.vias[i] is not None and path.vias[i] in model:
+            via = model[path.vias[i]]
+            c = via.centroid.copy()
+            c[2] = pts[-1][2]
+            pts.append(c)
+    obj = polylines_to_curve(PATH_OBJECT, [np.array(pts)], kind="path", matrix=model_matrix(model), scene=scene)
+    obj["indoor_spaces"] = list(path.spaces)
+    obj["indoor_length"] = float(path.length)
+    return obj
+
+
+def refresh_overlays(model, *, scene=None) -> None:
+    """After the model changed: redraw shown graphs, drop the (stale) path and its text."""
+    scene = scene or bpy.context.scene
+    for kind in GRAPH_OBJECTS:
+        if graph_shown(kind):
+            graph_to_curve(model, kind, scene=scene)
+    _remove_object(PATH_OBJECT)
+    settings = getattr(scene, "indoor", None)
+    if settings is not None:
+        settings.path_text = ""
+
+
+# --------------------------------------------------------------------------- overlays: surfaces
+CHANGES_COLLECTION = "Changes"
+"""Collection of the room faces coloured by coverage (change detection)."""
+EVALUATION_COLLECTION = "Evaluation"
+"""Collection of the reference / source surfaces coloured by the evaluation."""
+COVERAGE_RAMP = ((0.0, (0.85, 0.10, 0.10)), (0.5, (0.95, 0.80, 0.15)), (1.0, (0.15, 0.75, 0.30)))
+"""(value 0–1, linear RGB) stops: red (uncovered) → yellow → green (covered)."""
+FLAG_ALPHA = 0.9
+"""Opacity of flagged surfaces (missing, redundant)."""
+PLAIN_ALPHA = 0.45
+"""Opacity of the other overlay surfaces."""
+
+
+def ramp(values, stops=COVERAGE_RAMP) -> np.ndarray:
+    """(n, 3) float64 colours of (n,) values on a ramp of ``(position, rgb)`` stops (NaN → grey)."""
+    v = np.asarray(values, dtype=np.float64).ravel()
+    pos = np.array([p for p, _ in stops])
+    cols = np.array([c for _, c in stops], dtype=np.float64)
+    out = np.column_stack([np.interp(np.nan_to_num(v, nan=0.0), pos, cols[:, k]) for k in range(3)])
+    out[~np.isfinite(v)] = 0.5
+    return out
+
+
+def clear_collection(name: str, scene=None) -> None:
+    """Remove every object (and its now unused data) of the top-level collection ``name``."""
+    scene = scene or bpy.context.scene
+    coll = scene.collection.children.get(name)
+    if coll is None:
+        return
+    for obj in list(coll.all_objects):
+        _remove_object(obj.name)
+
+
+def patches_to_objects(patches, values, *, collection: str, attribute: str, flagged=(), matrix=None,
+                       prefix: str = "", scene=None) -> list:
+    """One mesh object per :class:`~engine.evaluation.PlanarPatch`, coloured by a value.
+
+    Parameters
+    ----------
+    patches : list of PlanarPatch
+        Planar faces (model frame when ``matrix`` maps it to the scene).
+    values : (n,) float64
+        One value in [0, 1] per patch (e.g. coverage): the FACE attribute ``attribute``,
+        the object property of the same name and the colour (:data:`COVERAGE_RAMP`).
+    collection : str
+        Top-level collection (emptied first).
+    flagged : iterable of str
+        Patch keys to flag (property ``indoor_flagged`` True, opaque).
+    prefix : str
+        Object name prefix.
+
+    Returns
+    -------
+    list of bpy.types.Object (same order as ``patches``).
+    """
+    from ..engine.evaluation.patches import polygon_triangles
+
+    scene = scene or bpy.context.scene
+    coll = ensure_collection(collection, scene)
+    flagged = set(flagged)
+    values = np.asarray(values, dtype=np.float64).ravel()
+    colors = ramp(values)
+    mat = overlay_material()
+    objs = []
+    for p, v, c in zip(patches, values, colors):
+        verts, tris = polygon_triangles(p)
+        name = f"{prefix}{p.name or p.shape_id} {p.kind} {p.face}"
+        mesh = bpy.data.meshes.new(name)
+        mesh.from_pydata(verts.tolist(), [], tris.tolist())
+        mesh.update()
+        attr = mesh.attributes.new(attribute, "FLOAT", "FACE")
+        attr.data.foreach_set("value", np.full(len(mesh.polygons), v, dtype=np.float32))
+        mesh.materials.append(mat)
+        obj = bpy.data.objects.new(name, mesh)
+        if matrix is not None:
+            obj.matrix_world = matrix
+        flag = p.key in flagged
+        obj.color = (*c, FLAG_ALPHA if flag else PLAIN_ALPHA)
+        obj.show_transparent = True
+        obj["indoor_patch"] = p.key
+        obj["indoor_shape_id_of"] = p.shape_id
+        obj[attribute] = float(v)
+        obj["indoor_flagged"] = flag
+        coll.objects.link(obj)
+        objs.append(obj)
+    return objs
+
+
+# --------------------------------------------------------------------------- change detection
+CHANGE_TYPE = "change_type"
+"""INT POINT attribute: 0 existing, 1 new (engine.change.EXISTING / NEW)."""
+CHANGE_DISTANCE = "change_distance"
+"""FLOAT POINT attribute: distance to the closest model surface, metres (inf when none)."""
+CHANGE_TYPE_COLOR = "change_type_color"
+"""BYTE_COLOR POINT attribute: existing grey / new red."""
+CHANGE_DISTANCE_COLOR = "change_distance_color"
+"""BYTE_COLOR POINT attribute: distance on :data:`DISTANCE_RAMP` (0 → 2 r), grey when none."""
+CHANGE_MATERIAL = "Indoor Changes"
+"""Material of a scan showing its change colours (reads one of the two colour attributes)."""
+TYPE_COLORS_CHANGE = {0: (0.55, 0.55, 0.58), 1: (0.90, 0.12, 0.10)}
+"""sRGB colours of existing (0) and new (1) points."""
+DISTANCE_RAMP = ((0.0, (0.15, 0.35, 0.85)), (0.5, (0.95, 0.85, 0.20)), (1.0, (0.90, 0.12, 0.10)))
+"""(position 0–1 of [0, 2 r], sRGB) stops of the distance colours: blue 0 → yellow r → red ≥ 2 r."""
+NO_SURFACE_COLOR = (0.35, 0.35, 0.35)
+"""sRGB colour of points with no model surface within the search distance."""
+
+
+def _byte_color(mesh, name, rgb):
+    rgba = np.ones((len(rgb), 4), dtype=np.float32)
+    rgba[:, :3] = rgb
+    attr = _attribute(mesh, name, "BYTE_COLOR")
+    attr.data.foreach_set("color_srgb", rgba.ravel())
+    return attr
+
+
+def change_material(color_attribute: str):
+    """The material showing a scan's change colours; its Attribute node reads ``color_attribute``."""
+    mat = bpy.data.materials.get(CHANGE_MATERIAL)
+    if mat is None or mat.library is not None:
+        mat = bpy.data.materials.new(CHANGE_MATERIAL)
+        mat.use_nodes = True
+        nt = mat.node_tree
+        bsdf = nt.nodes.get("Principled BSDF")
+        attr = nt.nodes.new("ShaderNodeAttribute")
+        attr.name = "Change colour"
+        attr.attribute_type = "GEOMETRY"
+        attr.location = (-300, 200)
+        nt.links.new(attr.outputs["Color"], bsdf.inputs["Base Color"])
+        nt.links.new(attr.outputs["Color"], bsdf.inputs["Emission Color"])
+        bsdf.inputs["Emission Strength"].default_value = 0.5
+        bsdf.inputs["Roughness"].default_value = 1.0
+    mat.node_tree.nodes["Change colour"].attribute_name = color_attribute
+    return mat
+
+
+def set_change_colors(obj, mode: str = "TYPE") -> None:
+    """Show a scan's change colours: ``mode`` "TYPE" (existing grey / new red) or "DISTANCE"."""
+    name = CHANGE_TYPE_COLOR if mode == "TYPE" else CHANGE_DISTANCE_COLOR
+    mesh = obj.data
+    attr = mesh.color_attributes.get(name)
+    if attr is None:
+        raise ValueError(f"{obj.name} has no change colours: run Detect changes first")
+    mesh.color_attributes.active_color = attr
+    mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
+    mat = change_material(name)
+    if is_point_mesh(obj):
+        set_display(obj, material=mat)
+    obj.update_tag()
+
+
+def changed_scans() -> list:
+    """Objects whose mesh carries change colours (:func:`change_overlay` ran on them)."""
+    return [o for o in bpy.data.objects if o.type == "MESH" and o.data is not None
+            and o.data.color_attributes.get(CHANGE_TYPE_COLOR) is not None]
+
+
+def change_overlay(obj, result, model, *, mode: str = "TYPE", scene=None) -> dict:
+    """Show a :class:`~engine.change.ChangeResult` on the scan ``obj`` and the model.
+
+    The scan's point mesh gets POINT attributes :data:`CHANGE_TYPE` (INT 0/1),
+    :data:`CHANGE_DISTANCE` (FLOAT metres, inf when no surface) and the two colour
+    attributes; its points are drawn with :data:`CHANGE_MATERIAL`. The room faces with a
+    coverage value become objects of the "Changes" collection (FACE attribute and
+    property ``coverage``, redundant ones flagged, coloured red → green). Returns the
+    summary dict stored in ``scene.indoor.change_summary``.
+    """
+    import json
+
+    scene = scene or bpy.context.scene
+    mesh = obj.data
+    n = len(mesh.vertices)
+    if len(result.point_type) != n:
+        raise ValueError(f"{obj.name} has {n} points but the change result has {len(result.point_type)}")
+    t = _attribute(mesh, CHANGE_TYPE, "INT")
+    t.data.foreach_set("value", result.point_type.astype(np.int32))
+    d = _attribute(mesh, CHANGE_DISTANCE, "FLOAT")
+    d.data.foreach_set("value", result.distance.astype(np.float32))
+    cols = np.array([TYPE_COLORS_CHANGE[0], TYPE_COLORS_CHANGE[1]], dtype=np.float32)
+    _byte_color(mesh, CHANGE_TYPE_COLOR, cols[np.clip(result.point_type, 0, 1)])
+    r = float(result.distance_threshold)
+    dcol = ramp(np.clip(result.distance / (2 * r), 0.0, 1.0), DISTANCE_RAMP)
+    dcol[~np.isfinite(result.distance)] = NO_SURFACE_COLOR
+    _byte_color(mesh, CHANGE_DISTANCE_COLOR, dcol.astype(np.float32))
+    mesh.update()
+    set_change_colors(obj, mode)
+    clear_collection(CHANGES_COLLECTION, scene)
+    patches_to_objects(result.coverage_patches, result.coverage, collection=CHANGES_COLLECTION,
+                       attribute="coverage", flagged=result.redundant, matrix=model_matrix(model),
+                       prefix="Coverage ", scene=scene)
+    s = result.summary()
+    summary = {"scan": obj.name, "points": s["points"], "existing": s["existing"], "new": s["new"],
+               "new_share": s["new_share"], "distance_threshold_m": s["distance_threshold_m"],
+               "surfaces": s["surfaces"], "redundant": s["redundant"], "new_elements": s["new_elements"],
+               "new_walls": s["new_walls"], "fitness": s["registration"].get("fitness"),
+               "rmse_m": s["registration"].get("rmse_point_to_plane_m")}
+    settings = getattr(scene, "indoor", None)
+    if settings is not None:
+        settings.change_summary = json.dumps(summary)
+    return summary
+
+
+# --------------------------------------------------------------------------- evaluation
+EVALUATION_IMAGE = "Indoor Evaluation Curves"
+"""Image datablock of the evaluation curves (packed into the .blend)."""
+
+
+def evaluation_overlay(result, reference, model, png_path: str, *, scene=None) -> dict:
+    """Show an :class:`~engine.evaluation.EvaluationResult` in the scene.
+
+    ``png_path`` (the curves written by ``write_evaluation_outputs``) is loaded and packed
+    as the image :data:`EVALUATION_IMAGE`. The "Evaluation" collection gets the visible
+    reference surfaces coloured by their covered share (missing ones flagged) and the
+    source surfaces coloured by their overlap share (redundant ones flagged), at the
+    localisation buffer; both in the reference's frame placed on the scene (offsets
+    accounted for). Returns the summary stored in ``scene.indoor.eval_summary``.
+    """
+    import json
+
+    from mathutils import Matrix
+
+    scene = scene or bpy.context.scene
+    old = bpy.data.images.get(EVALUATION_IMAGE)
+    img = bpy.data.images.load(png_path, check_existing=False)
+    img.pack()
+    if old is not None:
+        bpy.data.images.remove(old)
+    img.name = EVALUATION_IMAGE
+    try:
+        img.preview_ensure()
+    except (AttributeError, RuntimeError):  # no preview system (headless)
+        pass
+    li = result.localisation_index
+    m = np.asarray(reference.transform, dtype=np.float64).copy()
+    m[:3, 3] += np.asarray(reference.offset, dtype=np.float64) - np.asarray(model.offset, dtype=np.float64)
+    matrix = Matrix(m.tolist())
+    clear_collection(EVALUATION_COLLECTION, scene)
+    ref = [p for p, v in zip(result.reference, result.visible) if v]
+    ref_cov = result.reference_covered[np.asarray(result.visible, dtype=bool), li]
+    patches_to_objects(ref, ref_cov, collection=EVALUATION_COLLECTION, attribute="covered",
+                       flagged=result.missing, matrix=matrix, prefix="Reference ", scene=scene)
+    src_cov = result.source_covered[:, li] if len(result.source) else np.zeros(0)
+    patches_to_objects(result.source, src_cov, collection=EVALUATION_COLLECTION, attribute="covered",
+                       flagged=result.redundant, matrix=matrix, prefix="Source ", scene=scene)
+    b = float(result.buffers[li])
+
+    def at(metric):
+        v = float(result.curves["all"][metric][li])
+        return v if np.isfinite(v) else None
+
+    summary = {"buffer_m": b, "completeness": at("completeness"), "correctness": at("correctness"),
+               "accuracy_m": at("accuracy"), "missing": list(result.missing),
+               "redundant": list(result.redundant), "reference_surfaces": len(ref),
+               "source_surfaces": len(result.source), "image": img.name}
+    settings = getattr(scene, "indoor", None)
+    if settings is not None:
+        settings.eval_summary = json.dumps(summary)
+    return summary

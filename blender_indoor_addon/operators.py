@@ -10,17 +10,19 @@ import os
 import time
 
 import bpy
-from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..engine.errors import IndoorError
 from . import bridge
-from .props import METHOD_ITEMS
+from .props import EDIT_TYPE_ITEMS, METHOD_ITEMS, POSITION_ITEMS
 
 log = logging.getLogger(__name__)
 
-__all__ = ["INDOOR_OT_import_scan", "INDOOR_OT_reconstruct", "INDOOR_OT_export_ifc", "SCAN_EXTENSIONS",
-           "CLASSES", "menu_import", "menu_export"]
+__all__ = ["INDOOR_OT_import_scan", "INDOOR_OT_reconstruct", "INDOOR_OT_cancel_reconstruct", "ReconstructJob",
+           "INDOOR_OT_reclassify", "INDOOR_OT_insert_door", "INDOOR_OT_revert_edit", "INDOOR_OT_show_graph",
+           "INDOOR_OT_shortest_path", "INDOOR_OT_detect_changes", "INDOOR_OT_evaluate", "INDOOR_OT_export_ifc",
+           "SCAN_EXTENSIONS", "CLASSES", "menu_import", "menu_export"]
 
 SCAN_EXTENSIONS = (".ply", ".pcd", ".e57", ".las", ".laz", ".pts", ".xyz", ".txt", ".csv")
 """File extensions the Import scan file browser shows (the engine decides what it reads)."""
@@ -149,13 +151,74 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
         return bridge.is_point_mesh(context.active_object)
 
     def invoke(self, context, event):
+        """Interactive run: the engine works in a thread (:class:`ReconstructJob`), a timer
+        drives the progress bar, Esc (or the panel's Cancel) stops it; the objects are built
+        on the main thread when it finishes. Without a window (background): :meth:`execute`."""
         settings = getattr(context.scene, "indoor", None)
         if settings is not None:
             if not self.properties.is_property_set("method"):
                 self.method = settings.method
             if not self.properties.is_property_set("seed"):
                 self.seed = settings.reconstruct_seed
-        return self.execute(context)
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        if ReconstructJob.current is not None and ReconstructJob.current.running:
+            self.report({"WARNING"}, "a reconstruction is already running")
+            return {"CANCELLED"}
+        obj = context.active_object
+        try:
+            cloud = bridge.object_to_cloud(obj)
+        except IndoorError as e:
+            self.report({"ERROR"}, f"{obj.name}: {e}")
+            return {"CANCELLED"}
+        self._object_name = obj.name
+        self._job = ReconstructJob(cloud, self.method, self.seed)
+        self._job.start()
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        self._timer = wm.event_timer_add(TIMER_STEP, window=context.window)
+        wm.modal_handler_add(self)
+        if settings is not None:
+            settings.running, settings.progress, settings.progress_text = True, 0.0, "starting"
+        return {"RUNNING_MODAL"}
+
+    def _finish(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        settings = getattr(context.scene, "indoor", None)
+        if settings is not None:
+            settings.running, settings.progress_text = False, ""
+        for area in getattr(context.screen, "areas", []):
+            area.tag_redraw()
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == "ESC":
+            job.cancel()
+        if event.type != "TIMER" and event.type != "ESC":
+            return {"PASS_THROUGH"}
+        settings = getattr(context.scene, "indoor", None)
+        context.window_manager.progress_update(int(round(1000 * job.fraction)))
+        if settings is not None:
+            settings.progress, settings.progress_text = job.fraction, job.message
+        if job.running:
+            return {"RUNNING_MODAL"}
+        self._finish(context)
+        if job.cancelled:
+            self.report({"WARNING"}, f"Reconstruction of {self._object_name} cancelled; the scene is unchanged")
+            return {"CANCELLED"}
+        if job.error is not None:
+            self.report({"ERROR"}, f"{self._object_name}: {job.error}")
+            return {"CANCELLED"}
+        try:
+            by_coll = bridge.model_to_objects(job.model, scene=context.scene)
+        except IndoorError as e:
+            self.report({"ERROR"}, f"{self._object_name}: {e}")
+            return {"CANCELLED"}
+        bridge.refresh_overlays(job.model, scene=context.scene)
+        self.report({"INFO"}, _summary(self._object_name, job.model, self.method, by_coll, job.seconds))
+        return {"FINISHED"}
 
     def execute(self, context):
         from ..engine.reconstruct import reconstruct  # the engine is imported on first use
@@ -173,9 +236,428 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
             return {"CANCELLED"}
         finally:
             wm.progress_end()
-        counts = ", ".join(f"{len(v)} {k.lower()}" for k, v in sorted(by_coll.items()) if k != "Cells")
-        self.report({"INFO"}, f"Reconstructed {obj.name} ({model.provenance.method or self.method}): "
-                              f"{counts} in {time.perf_counter() - t0:.1f} s")
+        bridge.refresh_overlays(model, scene=context.scene)
+        self.report({"INFO"}, _summary(obj.name, model, self.method, by_coll, time.perf_counter() - t0))
+        return {"FINISHED"}
+
+
+def _summary(name, model, method, by_coll, seconds) -> str:
+    counts = ", ".join(f"{len(v)} {k.lower()}" for k, v in sorted(by_coll.items()) if k != "Cells")
+    return f"Reconstructed {name} ({model.provenance.method or method}): {counts} in {seconds:.1f} s"
+
+
+TIMER_STEP = 0.1
+"""Seconds between two progress updates of a modal reconstruction."""
+
+
+class ReconstructJob:
+    """``engine.reconstruct.reconstruct`` in a worker thread, cancellable.
+
+    The thread only runs the engine (numpy, no Blender data); the caller polls
+    :attr:`running`, :attr:`fraction` and :attr:`message` and builds the objects from
+    :attr:`model` on the main thread. :meth:`cancel` makes the engine's ``should_stop``
+    return True: the engine raises ``Cancelled`` at its next check and :attr:`cancelled`
+    becomes True.
+    """
+
+    current = None
+    """The job started last (one at a time)."""
+
+    def __init__(self, cloud, method: str = "auto", seed: int = 0, params=None):
+        import threading
+
+        self.cloud, self.method, self.seed, self.params = cloud, method, seed, params
+        self.fraction, self.message = 0.0, ""
+        self.model, self.error, self.cancelled, self.seconds = None, None, False, 0.0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="indoor-reconstruct", daemon=True)
+
+    def _progress(self, fraction, message=""):
+        self.fraction = max(self.fraction, float(fraction))
+        if message:
+            self.message = message
+
+    def _run(self):
+        from ..engine.errors import Cancelled
+        from ..engine.reconstruct import reconstruct
+
+        t0 = time.perf_counter()
+        try:
+            self.model = reconstruct(self.cloud, self.method, params=self.params, rng=self.seed,
+                                     progress=self._progress, should_stop=self._stop.is_set)
+        except Cancelled:
+            self.cancelled = True
+        except IndoorError as e:
+            self.error = e
+        except Exception as e:  # an engine bug must not kill the modal loop silently
+            log.exception("reconstruction failed")
+            self.error = e
+        finally:
+            self.seconds = time.perf_counter() - t0
+
+    def start(self):
+        ReconstructJob.current = self
+        self._thread.start()
+        return self
+
+    def cancel(self):
+        self._stop.set()
+
+    def join(self, timeout=None):
+        self._thread.join(timeout)
+        return not self._thread.is_alive()
+
+    @property
+    def running(self) -> bool:
+        return self._thread.is_alive()
+
+
+class INDOOR_OT_cancel_reconstruct(bpy.types.Operator):
+    """Stop the running reconstruction (the scene stays as it was)"""
+
+    bl_idname = "indoor.cancel_reconstruct"
+    bl_label = "Cancel"
+    bl_options = {"REGISTER"}
+
+    @classmethod
+    def poll(cls, context):
+        job = ReconstructJob.current
+        return job is not None and job.running
+
+    def execute(self, context):
+        ReconstructJob.current.cancel()
+        return {"FINISHED"}
+
+
+# --------------------------------------------------------------------------- Review and fix
+def _stored_or_report(op):
+    model = bridge.stored_model()
+    if model is None:
+        op.report({"ERROR"}, "no reconstructed model in this file: run Reconstruct first")
+    return model
+
+
+def _has_model(context) -> bool:
+    return bpy.data.texts.get(bridge.MODEL_TEXT) is not None
+
+
+class INDOOR_OT_reclassify(bpy.types.Operator):
+    """Give the selected shapes a new type; merges, walls, doors and topology are re-derived"""
+
+    bl_idname = "indoor.reclassify"
+    bl_label = "Reclassify"
+    bl_options = {"REGISTER", "UNDO"}
+
+    type: EnumProperty(name="New type", items=EDIT_TYPE_ITEMS, default="interior")
+    shape_ids: StringProperty(name="Shape ids", default="", options={"SKIP_SAVE"},
+                              description="Comma-separated shape ids (default: the selected objects)")
+
+    @classmethod
+    def poll(cls, context):
+        return _has_model(context) and any(bridge.SHAPE_PROP in o for o in context.selected_objects)
+
+    def invoke(self, context, event):
+        settings = getattr(context.scene, "indoor", None)
+        if settings is not None and not self.properties.is_property_set("type"):
+            self.type = settings.edit_type
+        return self.execute(context)
+
+    def execute(self, context):
+        from ..engine.topology import reclassify
+
+        model = _stored_or_report(self)
+        if model is None:
+            return {"CANCELLED"}
+        ids = [i.strip() for i in self.shape_ids.split(",") if i.strip()] or \
+            bridge.shape_ids_of(context.selected_objects)
+        if not ids:
+            self.report({"ERROR"}, "select shapes of the model (spaces, walls, exterior)")
+            return {"CANCELLED"}
+        try:
+            new = reclassify(model, ids, self.type)
+            bridge.apply_edit(model, new, scene=context.scene)
+        except IndoorError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Reclassified {len(ids)} shape(s) as {self.type}: "
+                              f"{len(new.spaces)} spaces, {len(new.walls)} walls, {len(new.doors)} doors")
+        return {"FINISHED"}
+
+
+class INDOOR_OT_insert_door(bpy.types.Operator):
+    """Insert a door in the active wall, at the 3D cursor or at a distance along the wall"""
+
+    bl_idname = "indoor.insert_door"
+    bl_label = "Insert Door"
+    bl_options = {"REGISTER", "UNDO"}
+
+    width: FloatProperty(name="Width", default=0.9, min=0.1, subtype="DISTANCE", unit="LENGTH")
+    height: FloatProperty(name="Height", default=2.1, min=0.1, subtype="DISTANCE", unit="LENGTH")
+    position_mode: EnumProperty(name="Position", items=POSITION_ITEMS, default="CURSOR")
+    position: FloatProperty(name="Along wall", default=1.0, min=0.0, subtype="DISTANCE", unit="LENGTH",
+                            description="Door centre from the wall's start, metres (Position = Value)")
+    wall_id: StringProperty(name="Wall id", default="", options={"SKIP_SAVE"},
+                            description="Id of the wall (default: the active object)")
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        return _has_model(context) and obj is not None and obj.get("indoor_type") == "wall"
+
+    def invoke(self, context, event):
+        settings = getattr(context.scene, "indoor", None)
+        if settings is not None:
+            for mine, theirs in (("width", "door_width"), ("height", "door_height"),
+                                 ("position_mode", "door_position_mode"), ("position", "door_position")):
+                if not self.properties.is_property_set(mine):
+                    setattr(self, mine, getattr(settings, theirs))
+        return self.execute(context)
+
+    def execute(self, context):
+        from ..engine.topology import insert_door
+
+        model = _stored_or_report(self)
+        if model is None:
+            return {"CANCELLED"}
+        obj = context.active_object
+        wall_id = self.wall_id or (str(obj[bridge.SHAPE_PROP]) if obj is not None and bridge.SHAPE_PROP in obj
+                                   else "")
+        if not wall_id:
+            self.report({"ERROR"}, "select a wall of the model")
+            return {"CANCELLED"}
+        if self.position_mode == "CURSOR":
+            position = bridge.to_model_frame(model, context.scene.cursor.location)
+        else:
+            position = float(self.position)
+        try:
+            new = insert_door(model, wall_id, position=position, width=self.width, height=self.height)
+            bridge.apply_edit(model, new, scene=context.scene)
+        except IndoorError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        door = next(s for s in new.doors if s.id not in model)
+        self.report({"INFO"}, f"Inserted {door.name} ({self.width:.2f} x {self.height:.2f} m) in {wall_id} "
+                              f"at {door.attributes['position']:.2f} m")
+        return {"FINISHED"}
+
+
+class INDOOR_OT_revert_edit(bpy.types.Operator):
+    """Go back to the model before the last Reclassify / Insert door (kept in the .blend)"""
+
+    bl_idname = "indoor.revert_edit"
+    bl_label = "Revert Last Edit"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return bpy.data.texts.get(bridge.HISTORY_TEXT) is not None and bridge.history_length() > 0
+
+    def execute(self, context):
+        try:
+            model = bridge.restore_previous(scene=context.scene)
+        except IndoorError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        if model is None:
+            self.report({"ERROR"}, "no earlier model to go back to")
+            return {"CANCELLED"}
+        bridge.refresh_overlays(model, scene=context.scene)
+        self.report({"INFO"}, f"Restored the previous model ({len(model.spaces)} spaces, {len(model.doors)} doors)")
+        return {"FINISHED"}
+
+
+# --------------------------------------------------------------------------- Topology
+class INDOOR_OT_show_graph(bpy.types.Operator):
+    """Draw or hide the adjacency / connectivity graph: curves between the centres of spaces"""
+
+    bl_idname = "indoor.show_graph"
+    bl_label = "Show Graph"
+    bl_options = {"REGISTER", "UNDO"}
+
+    kind: EnumProperty(name="Graph", items=(("adjacency", "Adjacency", "Spaces sharing a wall"),
+                                            ("connectivity", "Connectivity", "Spaces joined by a door")))
+    show: EnumProperty(name="Show", items=(("TOGGLE", "Toggle", ""), ("ON", "On", ""), ("OFF", "Off", "")),
+                       default="TOGGLE")
+
+    @classmethod
+    def poll(cls, context):
+        return _has_model(context)
+
+    def execute(self, context):
+        on = (not bridge.graph_shown(self.kind)) if self.show == "TOGGLE" else self.show == "ON"
+        if not on:
+            bridge.remove_graph(self.kind)
+            return {"FINISHED"}
+        model = _stored_or_report(self)
+        if model is None:
+            return {"CANCELLED"}
+        obj = bridge.graph_to_curve(model, self.kind, scene=context.scene)
+        self.report({"INFO"}, f"{self.kind.capitalize()} graph: {len(obj['indoor_edges'])} edges")
+        return {"FINISHED"}
+
+
+class INDOOR_OT_shortest_path(bpy.types.Operator):
+    """Shortest walk between the two selected spaces (through doors), drawn as a curve"""
+
+    bl_idname = "indoor.shortest_path"
+    bl_label = "Shortest Path"
+    bl_options = {"REGISTER", "UNDO"}
+
+    start: StringProperty(name="From", default="", options={"SKIP_SAVE"},
+                          description="Space id or name (default: the selected space that is not active)")
+    end: StringProperty(name="To", default="", options={"SKIP_SAVE"},
+                        description="Space id or name (default: the active space)")
+
+    @classmethod
+    def poll(cls, context):
+        return _has_model(context)
+
+    def _ends(self, context):
+        if self.start and self.end:
+            return self.start, self.end
+        spaces = [o for o in context.selected_objects if o.get("indoor_type") == "interior" and bridge.SHAPE_PROP in o]
+        if len(spaces) != 2:
+            return None
+        active = context.active_object
+        spaces.sort(key=lambda o: o == active)  # the active one last
+        return tuple(str(o[bridge.SHAPE_PROP]) for o in spaces)
+
+    def execute(self, context):
+        from ..engine.topology import describe_path, shortest_path
+
+        model = _stored_or_report(self)
+        if model is None:
+            return {"CANCELLED"}
+        ends = self._ends(context)
+        if ends is None:
+            self.report({"ERROR"}, "select exactly two spaces")
+            return {"CANCELLED"}
+        settings = getattr(context.scene, "indoor", None)
+        try:
+            path = shortest_path(model, *ends)
+        except KeyError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        if path is None:
+            bridge.refresh_overlays(model, scene=context.scene)  # drops a previous path
+            text = f"{ends[1]} cannot be reached from {ends[0]}"
+            if settings is not None:
+                settings.path_text, settings.path_length = text, 0.0
+            self.report({"WARNING"}, text)
+            return {"FINISHED"}
+        text = describe_path(model, path)
+        bridge.path_to_curve(model, path, scene=context.scene)
+        if settings is not None:
+            settings.path_text, settings.path_length = text, path.length
+        self.report({"INFO"}, f"{text} ({path.length:.1f} m)")
+        return {"FINISHED"}
+
+
+# --------------------------------------------------------------------------- Changes
+class INDOOR_OT_detect_changes(bpy.types.Operator, ImportHelper):
+    """Compare a newer scan with the model: new/existing points, distances, coverage of room faces"""
+
+    bl_idname = "indoor.detect_changes"
+    bl_label = "Detect Changes"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filename_ext = ""
+    filter_glob: StringProperty(default=";".join("*" + e for e in SCAN_EXTENSIONS), options={"HIDDEN"})
+    use_active: BoolProperty(name="Active scan", default=False,
+                             description="Use the active scan object instead of a file")
+
+    @classmethod
+    def poll(cls, context):
+        return _has_model(context)
+
+    def invoke(self, context, event):
+        if self.use_active:
+            return self.execute(context)
+        return ImportHelper.invoke(self, context, event)
+
+    def execute(self, context):
+        from ..engine.change import detect_changes
+        from ..engine.io import read_point_cloud
+
+        model = _stored_or_report(self)
+        if model is None:
+            return {"CANCELLED"}
+        settings = getattr(context.scene, "indoor", None)
+        made = None
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        try:
+            if self.use_active or not self.filepath:
+                obj = context.active_object
+                if not bridge.is_point_mesh(obj):
+                    self.report({"ERROR"}, "choose a scan file or make an imported scan active")
+                    return {"CANCELLED"}
+                cloud = bridge.object_to_cloud(obj)
+            else:
+                cloud = read_point_cloud(bpy.path.abspath(self.filepath))
+            result = detect_changes(model, cloud, progress=_progress_callback(context))
+            if not (self.use_active or not self.filepath):
+                obj = made = bridge.point_cloud_to_object(cloud, scene=context.scene)
+            summary = bridge.change_overlay(obj, result, model, scene=context.scene,
+                                            mode=settings.change_color_mode if settings else "TYPE")
+        except IndoorError as e:
+            if made is not None:
+                bridge.remove_objects([made])
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        finally:
+            wm.progress_end()
+        self.report({"INFO"}, f"{summary['new']:,} new of {summary['points']:,} points; "
+                              f"{len(summary['redundant'])} of {summary['surfaces']} surfaces redundant")
+        return {"FINISHED"}
+
+
+# --------------------------------------------------------------------------- Evaluate
+class INDOOR_OT_evaluate(bpy.types.Operator, ImportHelper):
+    """Compare the model with a reference (IFC, OBJ, PLY, JSON): completeness, correctness, accuracy"""
+
+    bl_idname = "indoor.evaluate"
+    bl_label = "Evaluate"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filename_ext = ""
+    filter_glob: StringProperty(default="*.ifc;*.obj;*.ply;*.json", options={"HIDDEN"})
+    out_dir: StringProperty(name="Output folder", default="", subtype="DIR_PATH",
+                            description="Where the evaluation files go (default: a temporary folder)")
+
+    @classmethod
+    def poll(cls, context):
+        return _has_model(context)
+
+    def execute(self, context):
+        import tempfile
+
+        from ..engine.evaluation import evaluate, load_model, write_evaluation_outputs
+
+        model = _stored_or_report(self)
+        if model is None:
+            return {"CANCELLED"}
+        path = bpy.path.abspath(self.filepath)
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        try:
+            reference = load_model(path)
+            result = evaluate(model, reference, progress=_progress_callback(context))
+            out = bpy.path.abspath(self.out_dir) if self.out_dir else tempfile.mkdtemp(prefix="indoor_eval_")
+            files = write_evaluation_outputs(result, out, title=os.path.basename(path))
+            summary = bridge.evaluation_overlay(result, reference, model, files["png"], scene=context.scene)
+        except IndoorError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        finally:
+            wm.progress_end()
+
+        def pct(v):
+            return "n/a" if v is None else f"{100 * v:.0f}%"
+
+        self.report({"INFO"}, f"completeness {pct(summary['completeness'])}, correctness "
+                              f"{pct(summary['correctness'])} at {100 * summary['buffer_m']:.0f} cm; "
+                              f"{len(summary['missing'])} missing, {len(summary['redundant'])} redundant")
         return {"FINISHED"}
 
 
@@ -222,4 +704,6 @@ def menu_export(self, context):
     self.layout.operator(INDOOR_OT_export_ifc.bl_idname, text="Indoor Model (.ifc)")
 
 
-CLASSES = (INDOOR_OT_import_scan, INDOOR_OT_reconstruct, INDOOR_OT_export_ifc)
+CLASSES = (INDOOR_OT_import_scan, INDOOR_OT_reconstruct, INDOOR_OT_cancel_reconstruct, INDOOR_OT_reclassify,
+           INDOOR_OT_insert_door, INDOOR_OT_revert_edit, INDOOR_OT_show_graph, INDOOR_OT_shortest_path,
+           INDOOR_OT_detect_changes, INDOOR_OT_evaluate, INDOOR_OT_export_ifc)

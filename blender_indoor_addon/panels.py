@@ -1,11 +1,28 @@
 """The sidebar tab View3D ▸ N panel ▸ "Indoor". Panels only draw: no computation here."""
 from __future__ import annotations
 
+import json
+
 import bpy
 
 from . import bridge
 
-__all__ = ["INDOOR_PT_import_scan", "INDOOR_PT_reconstruct", "INDOOR_PT_export", "CLASSES"]
+
+def _summary(text: str) -> dict:
+    """A JSON summary stored by an operator ({} when empty or unreadable)."""
+    if not text:
+        return {}
+    try:
+        return json.loads(text)
+    except ValueError:
+        return {}
+
+
+def _pct(v) -> str:
+    return "n/a" if v is None else f"{100 * v:.1f}%"
+
+__all__ = ["INDOOR_PT_import_scan", "INDOOR_PT_reconstruct", "INDOOR_PT_review", "INDOOR_PT_topology",
+           "INDOOR_PT_evaluate", "INDOOR_PT_changes", "INDOOR_PT_export", "CLASSES"]
 
 
 class _IndoorPanel:
@@ -60,10 +77,19 @@ class INDOOR_PT_reconstruct(_IndoorPanel, bpy.types.Panel):
         if settings is not None:
             layout.prop(settings, "method")
             layout.prop(settings, "reconstruct_seed")
-        op = layout.operator("indoor.reconstruct", icon="MOD_BUILD")
-        if settings is not None:
-            op.method = settings.method
-            op.seed = settings.reconstruct_seed
+        if settings is not None and settings.running:
+            row = layout.row(align=True)
+            if hasattr(row, "progress"):  # 4.0+
+                row.progress(factor=settings.progress, type="BAR",
+                             text=f"{settings.progress_text} {100 * settings.progress:.0f}%")
+            else:
+                row.label(text=f"{settings.progress_text} {100 * settings.progress:.0f}%")
+            row.operator("indoor.cancel_reconstruct", text="", icon="CANCEL")
+        else:
+            op = layout.operator("indoor.reconstruct", icon="MOD_BUILD")
+            if settings is not None:
+                op.method = settings.method
+                op.seed = settings.reconstruct_seed
         if not bridge.is_point_mesh(context.active_object):
             layout.label(text="Select an imported scan", icon="INFO")
         top = context.scene.collection.children.get(bridge.MODEL_COLLECTION)
@@ -71,6 +97,134 @@ class INDOOR_PT_reconstruct(_IndoorPanel, bpy.types.Panel):
             col = layout.column(align=True)
             for coll in top.children:
                 col.label(text=f"{coll.name}: {len(coll.objects)}", icon="OUTLINER_COLLECTION")
+
+
+class INDOOR_PT_review(_IndoorPanel, bpy.types.Panel):
+    """Reclassify shapes, insert doors, go back to the model before the last edit."""
+
+    bl_idname = "INDOOR_PT_review"
+    bl_label = "Review and fix"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = getattr(context.scene, "indoor", None)
+        if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
+            layout.label(text="Reconstruct a scan first", icon="INFO")
+            return
+        obj = context.active_object
+        if obj is not None and bridge.SHAPE_PROP in obj:
+            layout.label(text=f"{obj.name}: {obj.get('indoor_type', '?')} ({obj[bridge.SHAPE_PROP]})",
+                         icon="OBJECT_DATA")
+        if settings is None:
+            return
+        col = layout.column(align=True)
+        col.prop(settings, "edit_type")
+        op = col.operator("indoor.reclassify", icon="FILE_REFRESH")
+        op.type = settings.edit_type
+        col = layout.column(align=True)
+        col.prop(settings, "door_width")
+        col.prop(settings, "door_height")
+        col.prop(settings, "door_position_mode")
+        if settings.door_position_mode == "VALUE":
+            col.prop(settings, "door_position")
+        op = col.operator("indoor.insert_door", icon="MESH_PLANE")
+        op.width, op.height = settings.door_width, settings.door_height
+        op.position_mode, op.position = settings.door_position_mode, settings.door_position
+        layout.operator("indoor.revert_edit", icon="LOOP_BACK")
+
+
+class INDOOR_PT_topology(_IndoorPanel, bpy.types.Panel):
+    """Adjacency / connectivity graphs and shortest paths."""
+
+    bl_idname = "INDOOR_PT_topology"
+    bl_label = "Topology"
+
+    def draw(self, context):
+        layout = self.layout
+        if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
+            layout.label(text="Reconstruct a scan first", icon="INFO")
+            return
+        row = layout.row(align=True)
+        for kind, label in (("adjacency", "Adjacency"), ("connectivity", "Connectivity")):
+            op = row.operator("indoor.show_graph", text=label, depress=bridge.graph_shown(kind),
+                              icon="HIDE_OFF" if bridge.graph_shown(kind) else "HIDE_ON")
+            op.kind, op.show = kind, "TOGGLE"
+        layout.operator("indoor.shortest_path", icon="TRACKING")
+        settings = getattr(context.scene, "indoor", None)
+        if settings is not None and settings.path_text:
+            box = layout.box()
+            for part in settings.path_text.split(" → "):
+                box.label(text=part, icon="FORWARD")
+            if settings.path_length > 0:
+                box.label(text=f"{settings.path_length:.1f} m centre to centre")
+
+
+class INDOOR_PT_evaluate(_IndoorPanel, bpy.types.Panel):
+    """Quality against a reference: the curves and coloured surfaces."""
+
+    bl_idname = "INDOOR_PT_evaluate"
+    bl_label = "Evaluate"
+
+    def draw(self, context):
+        layout = self.layout
+        if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
+            layout.label(text="Reconstruct a scan first", icon="INFO")
+            return
+        layout.operator("indoor.evaluate", text="Evaluate against reference…", icon="CHECKMARK")
+        settings = getattr(context.scene, "indoor", None)
+        s = _summary(settings.eval_summary) if settings is not None else {}
+        if not s:
+            return
+        box = layout.box()
+        box.label(text=f"At {100 * s['buffer_m']:.0f} cm buffer:")
+        box.label(text=f"Completeness {_pct(s['completeness'])}")
+        box.label(text=f"Correctness {_pct(s['correctness'])}")
+        if s.get("accuracy_m") is not None:
+            box.label(text=f"Accuracy (median) {100 * s['accuracy_m']:.1f} cm")
+        box.label(text=f"{len(s['missing'])} missing, {len(s['redundant'])} redundant surfaces")
+        box.label(text="Surfaces: red uncovered → green covered")
+        img = bpy.data.images.get(bridge.EVALUATION_IMAGE)
+        if img is not None and img.preview is not None:
+            layout.template_icon(icon_value=img.preview.icon_id, scale=10.0)
+
+
+class INDOOR_PT_changes(_IndoorPanel, bpy.types.Panel):
+    """Change detection against a newer scan: summary and legend."""
+
+    bl_idname = "INDOOR_PT_changes"
+    bl_label = "Changes"
+
+    def draw(self, context):
+        layout = self.layout
+        if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
+            layout.label(text="Reconstruct a scan first", icon="INFO")
+            return
+        row = layout.row(align=True)
+        row.operator("indoor.detect_changes", text="Scan file…", icon="FILE_FOLDER").use_active = False
+        op = row.operator("indoor.detect_changes", text="Active scan", icon="POINTCLOUD_DATA")
+        op.use_active = True
+        settings = getattr(context.scene, "indoor", None)
+        if settings is None:
+            return
+        layout.prop(settings, "change_color_mode", expand=True)
+        s = _summary(settings.change_summary)
+        if not s:
+            return
+        box = layout.box()
+        box.label(text=f"{s['scan']}: {s['new']:,} new of {s['points']:,} ({_pct(s['new_share'])})")
+        box.label(text=f"Threshold r = {100 * s['distance_threshold_m']:.1f} cm")
+        box.label(text=f"{len(s['redundant'])} of {s['surfaces']} surfaces redundant")
+        box.label(text=f"{s['new_elements']} new elements ({s['new_walls']} walls)")
+        legend = layout.box()
+        if settings.change_color_mode == "TYPE":
+            legend.label(text="grey: existing   red: new", icon="COLOR")
+        else:
+            r = 100 * s["distance_threshold_m"]
+            legend.label(text=f"blue 0 → yellow {r:.0f} cm → red ≥ {2 * r:.0f} cm", icon="COLOR")
+            legend.label(text="dark grey: no surface nearby")
+        legend.label(text="Surfaces: red uncovered → green covered")
 
 
 class INDOOR_PT_export(_IndoorPanel, bpy.types.Panel):
@@ -86,4 +240,6 @@ class INDOOR_PT_export(_IndoorPanel, bpy.types.Panel):
             layout.label(text="Reconstruct a scan first", icon="INFO")
 
 
-CLASSES = (INDOOR_PT_import_scan, INDOOR_PT_reconstruct, INDOOR_PT_export)
+CLASSES = (INDOOR_PT_import_scan, INDOOR_PT_reconstruct, INDOOR_PT_review, INDOOR_PT_topology,
+           INDOOR_PT_evaluate, INDOOR_PT_changes, INDOOR_PT_export)
+"""In the order of the work (registration order is the order in the sidebar)."""

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import EnumProperty, FloatProperty, IntProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 METHOD_ITEMS = (
     ("auto", "Auto", "Manhattan grammar when the walls are mostly orthogonal, else generic"),
@@ -11,7 +11,36 @@ METHOD_ITEMS = (
 )
 """Reconstruction methods (ids of ``engine.reconstruct.METHODS``)."""
 
-__all__ = ["INDOOR_PG_settings", "CLASSES", "METHOD_ITEMS"]
+EDIT_TYPE_ITEMS = (
+    ("interior", "Space", "An interior space (room, corridor)"),
+    ("wall", "Wall", "A wall (between spaces)"),
+    ("exterior", "Exterior", "Outside the building"),
+    ("none", "None", "Not part of the building"),
+)
+"""Types a shape can be reclassified to (engine.topology.reclassify)."""
+
+POSITION_ITEMS = (
+    ("CURSOR", "3D cursor", "The 3D cursor projected onto the wall's axis"),
+    ("VALUE", "Value", "A distance along the wall from its start, metres"),
+)
+"""Where Insert door puts the door's centre."""
+
+CHANGE_COLOR_ITEMS = (
+    ("TYPE", "Existing / new", "Existing points grey, new points red"),
+    ("DISTANCE", "Distance", "Distance to the model: blue 0 → yellow r → red ≥ 2 r"),
+)
+"""How a scan shows its change-detection result."""
+
+__all__ = ["INDOOR_PG_settings", "CLASSES", "METHOD_ITEMS", "EDIT_TYPE_ITEMS", "POSITION_ITEMS",
+           "CHANGE_COLOR_ITEMS"]
+
+
+def _update_change_colors(self, context):
+    """Switch every scan that has change colours to the chosen colouring."""
+    from . import bridge
+
+    for obj in bridge.changed_scans():
+        bridge.set_change_colors(obj, self.change_color_mode)
 
 
 class INDOOR_PG_settings(bpy.types.PropertyGroup):
@@ -36,6 +65,36 @@ class INDOOR_PG_settings(bpy.types.PropertyGroup):
                          description="Reconstruction method")
     reconstruct_seed: IntProperty(name="Seed", default=0, min=0,
                                   description="Seed of the reconstruction (same seed, same model)")
+
+    # Review and fix
+    edit_type: EnumProperty(name="New type", items=EDIT_TYPE_ITEMS, default="interior",
+                            description="Type given to the selected shapes by Reclassify")
+    door_width: FloatProperty(name="Width", default=0.9, min=0.1, soft_max=3.0, subtype="DISTANCE",
+                              unit="LENGTH", description="Door width, metres")
+    door_height: FloatProperty(name="Height", default=2.1, min=0.1, soft_max=3.0, subtype="DISTANCE",
+                               unit="LENGTH", description="Door height, metres")
+    door_position_mode: EnumProperty(name="Position", items=POSITION_ITEMS, default="CURSOR",
+                                     description="Where the door's centre goes")
+    door_position: FloatProperty(name="Along wall", default=1.0, min=0.0, subtype="DISTANCE",
+                                 unit="LENGTH", description="Door centre from the wall's start, metres")
+    # Topology (cached results: the panel only reads them)
+    path_text: StringProperty(name="Path", default="",
+                              description="Room sequence of the last shortest path")
+    path_length: FloatProperty(name="Length", default=0.0, subtype="DISTANCE", unit="LENGTH",
+                               description="Length of the last shortest path (centre to centre), metres")
+    # Changes / Evaluate (JSON summaries written by the operators)
+    change_color_mode: EnumProperty(name="Colour", items=CHANGE_COLOR_ITEMS, default="TYPE",
+                                    description="How the scan shows the change detection",
+                                    update=_update_change_colors)
+    change_summary: StringProperty(name="Change summary", default="",
+                                   description="JSON summary of the last change detection")
+    eval_summary: StringProperty(name="Evaluation summary", default="",
+                                 description="JSON summary of the last evaluation")
+    # Reconstruct: progress of a modal run
+    running: BoolProperty(name="Running", default=False, description="A reconstruction is running")
+    progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR",
+                            description="Progress of the running reconstruction")
+    progress_text: StringProperty(name="Stage", default="", description="Stage of the running reconstruction")
 
 
 CLASSES = (INDOOR_PG_settings,)

@@ -1,0 +1,344 @@
+"""The add-on's Review and fix, Topology, Changes and Evaluate sections, inside Blender.
+
+Models are the true models of engine.synthetic presets (known rooms, walls, doors), put in
+the scene with the bridge, so the operators are tested without a reconstruction run.
+"""
+import json
+import os
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+import blender_util as bu  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def addon():
+    mod = bu.addon_module()
+    mod.register()
+    yield mod
+    mod.unregister()  # the bpy module hangs at exit with classes registered
+
+
+@pytest.fixture(scope="module")
+def office():
+    return bu.engine_module("synthetic").preset("office_mw", seed=1, target_points=20_000)
+
+
+@pytest.fixture
+def office_scene(addon, office):
+    scene = bu.fresh_scene()
+    addon.bridge.model_to_objects(office.truth, scene=scene)
+    return scene
+
+
+def _objects(coll_name, scene=None):
+    scene = scene or bpy.context.scene
+    top = scene.collection.children["Indoor Model"]
+    coll = top.children.get(coll_name)
+    return [] if coll is None else list(coll.objects)
+
+
+def _by_shape(shape_id):
+    return next(o for o in bpy.data.objects if o.get("indoor_shape_id") == shape_id)
+
+
+def _select(*objs, active=None):
+    vl = bpy.context.view_layer
+    for o in vl.objects.selected:
+        o.select_set(False)
+    for o in objs:
+        o.select_set(True)
+    vl.objects.active = active or objs[-1]
+
+
+def _edges(model, kind):
+    topology = bu.engine_module("topology")
+    return {tuple(sorted(e)) for e in topology.space_graph(model, kind).edges}
+
+
+def _unconnected_neighbours(model):
+    """(wall id, space a, space b) of a wall between two adjacent spaces without a door."""
+    conn = _edges(model, "connectivity")
+    for r in model.relations:
+        if r.kind != "adjacency" or r.via is None or r.via not in model:
+            continue
+        a, b = model.top_level(r.a).id, model.top_level(r.b).id
+        if a != b and model[a].type.value == model[b].type.value == "interior" and \
+                tuple(sorted((a, b))) not in conn and model[r.via].type.value == "wall":
+            return r.via, a, b
+    raise AssertionError("office_mw has no adjacent unconnected rooms")
+
+
+# --------------------------------------------------------------------------- registration
+def test_sections_in_work_order_and_operators_undoable(addon):
+    labels = [c.bl_label for c in addon.panels.CLASSES]
+    assert labels == ["Import scan", "Reconstruct", "Review and fix", "Topology", "Evaluate", "Changes",
+                      "Export"]
+    for op in ("reclassify", "insert_door", "revert_edit", "show_graph", "shortest_path", "detect_changes",
+               "evaluate"):
+        cls = getattr(bpy.types, "INDOOR_OT_" + op)
+        assert {"REGISTER", "UNDO"} <= set(cls.bl_options), op
+    addon.unregister()
+    try:
+        for cls in addon.CLASSES:
+            assert not cls.is_registered, cls
+        assert not hasattr(bpy.types, "INDOOR_OT_shortest_path")
+        assert not hasattr(bpy.types.Scene, "indoor")
+    finally:
+        addon.register()
+
+
+# --------------------------------------------------------------------------- Review and fix
+def test_reclassify_room_changes_collections_and_topology(office_scene, addon, office):
+    model = addon.bridge.stored_model()
+    n_spaces, n_ext = len(_objects("Spaces")), len(_objects("Exterior"))
+    assert n_spaces == len(model.spaces) == 8
+    room = next(s for s in model.spaces if s.name == "Room 3")
+    conn_before = _edges(model, "connectivity")
+    assert any(room.id in e for e in conn_before)
+    _select(_by_shape(room.id))
+    assert bpy.ops.indoor.reclassify(type="exterior") == {"FINISHED"}
+    new = addon.bridge.stored_model()
+    expect = bu.engine_module("topology").reclassify(model, [room.id], "exterior")
+    assert [(s.id, s.type, s.active) for s in new.shapes] == [(s.id, s.type, s.active) for s in expect.shapes]
+    assert len(_objects("Spaces")) == n_spaces - 1 == len(new.spaces)
+    assert len(_objects("Exterior")) == n_ext + 1
+    assert _by_shape(room.id).users_collection[0].name == "Exterior"
+    assert not any(room.id in e for e in _edges(new, "connectivity"))
+    # the add-on's own restore path gives back the model before the edit
+    assert addon.bridge.history_length() == 1
+    assert bpy.ops.indoor.revert_edit() == {"FINISHED"}
+    assert addon.bridge.stored_model().to_json() == model.to_json()
+    assert len(_objects("Spaces")) == n_spaces and len(_objects("Exterior")) == n_ext
+    assert addon.bridge.history_length() == 0
+    assert not bpy.ops.indoor.revert_edit.poll()
+
+
+def test_insert_door_at_cursor_connects_rooms_and_undo_restores(office_scene, addon):
+    model = addon.bridge.stored_model()
+    wall_id, a, b = _unconnected_neighbours(model)
+    wall = _by_shape(wall_id)
+    n_doors = len(_objects("Doors"))
+    # the 3D cursor at the wall's centre (scene frame = model.transform applied)
+    centre = np.asarray(model.transform)[:3, :3] @ model[wall_id].centroid + np.asarray(model.transform)[:3, 3]
+    bpy.context.scene.cursor.location = centre
+    _select(wall)
+    bpy.ops.ed.undo_push(message="before door")
+    assert bpy.ops.indoor.insert_door(width=1.0, height=2.0, position_mode="CURSOR") == {"FINISHED"}
+    new = addon.bridge.stored_model()
+    assert len(new.doors) == len(model.doors) + 1 == len(_objects("Doors")) == n_doors + 1
+    door = next(d for d in new.doors if d.id not in model)
+    assert door.parent == model.top_level(wall_id).id
+    length = model[wall_id].bounds[1] - model[wall_id].bounds[0]
+    axis = int(np.argmax(length[:2]))
+    assert door.attributes["position"] == pytest.approx(length[axis] / 2, abs=1e-6)
+    assert door.attributes["width"] == 1.0 and door.attributes["height"] == 2.0
+    assert tuple(sorted((a, b))) in _edges(new, "connectivity")
+    # Blender's undo restores the model and the objects. Headless, operators called from Python
+    # push no undo step themselves (the window manager does that for UI calls of UNDO operators),
+    # so the test pushes the step the UI would push after the operator.
+    bpy.ops.ed.undo_push(message="Insert Door")
+    assert bpy.ops.ed.undo() == {"FINISHED"}
+    back = addon.bridge.stored_model()
+    assert back.to_json() == model.to_json()
+    assert len(_objects("Doors")) == n_doors
+    assert tuple(sorted((a, b))) not in _edges(back, "connectivity")
+
+
+def test_insert_door_by_value_and_failure_leaves_scene(office_scene, addon):
+    model = addon.bridge.stored_model()
+    wall_id, _, _ = _unconnected_neighbours(model)
+    _select(_by_shape(wall_id))
+    before = bu.scene_state()
+    text = model.to_json()
+    with pytest.raises(RuntimeError, match="does not fit"):
+        bpy.ops.indoor.insert_door(width=0.9, height=2.0, position_mode="VALUE", position=0.1)
+    with pytest.raises(RuntimeError, match="does not fit"):
+        bpy.ops.indoor.insert_door(width=0.9, height=5.0, position_mode="VALUE", position=1.5)
+    assert bu.scene_state() == before and addon.bridge.stored_model().to_json() == text
+    assert bpy.ops.indoor.insert_door(width=0.8, height=2.0, position_mode="VALUE", position=1.5) == {"FINISHED"}
+    door = next(d for d in addon.bridge.stored_model().doors if d.id not in model)
+    assert door.attributes["position"] == pytest.approx(1.5)
+
+
+# --------------------------------------------------------------------------- Topology
+def test_graph_curves_join_space_centres(office_scene, addon):
+    model = addon.bridge.stored_model()
+    for kind in ("adjacency", "connectivity"):
+        assert bpy.ops.indoor.show_graph(kind=kind) == {"FINISHED"}
+        obj = bpy.data.objects[addon.bridge.GRAPH_OBJECTS[kind]]
+        assert obj.users_collection[0].name == "Topology"
+        edges = _edges(model, kind)
+        assert sorted(obj["indoor_edges"]) == sorted(f"{a}|{b}" for a, b in edges)
+        assert len(obj.data.splines) == len(edges) > 0
+        for (a_b, pts) in zip(obj["indoor_edges"], addon.bridge.spline_points(obj)):
+            a, b = a_b.split("|")
+            np.testing.assert_allclose(pts, [model[a].centroid, model[b].centroid], atol=1e-5)
+    assert len(_edges(model, "adjacency")) > len(_edges(model, "connectivity"))
+    assert bpy.ops.indoor.show_graph(kind="adjacency") == {"FINISHED"}  # toggled off
+    assert bpy.data.objects.get("Adjacency graph") is None
+    assert bpy.data.objects.get("Connectivity graph") is not None
+    # an edit redraws the shown graph: the new door adds a connectivity edge
+    wall_id, a, b = _unconnected_neighbours(model)
+    _select(_by_shape(wall_id))
+    n = len(bpy.data.objects["Connectivity graph"].data.splines)
+    bpy.ops.indoor.insert_door(position_mode="VALUE", position=1.0)
+    assert len(bpy.data.objects["Connectivity graph"].data.splines) == n + 1
+
+
+def test_shortest_path_between_selected_spaces(office_scene, addon):
+    model = addon.bridge.stored_model()
+    topology = bu.engine_module("topology")
+    r1 = next(s for s in model.spaces if s.name == "Room 1")
+    r5 = next(s for s in model.spaces if s.name == "Room 5")
+    _select(_by_shape(r1.id), _by_shape(r5.id), active=_by_shape(r5.id))
+    assert bpy.ops.indoor.shortest_path() == {"FINISHED"}
+    expect = topology.shortest_path(model, r1.id, r5.id)
+    settings = bpy.context.scene.indoor
+    assert settings.path_text == topology.describe_path(model, expect)
+    names = settings.path_text.split(" → ")
+    assert names[0] == "Room 1" and names[-1] == "Room 5" and len(names) >= 3
+    assert settings.path_length == pytest.approx(expect.length, rel=1e-6)
+    curve = bpy.data.objects["Shortest path"]
+    pts = addon.bridge.spline_points(curve)[0]
+    np.testing.assert_allclose(pts[0], r1.centroid, atol=1e-5)
+    np.testing.assert_allclose(pts[-1], r5.centroid, atol=1e-5)
+    assert list(curve["indoor_spaces"]) == list(expect.spaces)
+    # one selected space is an error that changes nothing
+    _select(_by_shape(r1.id))
+    with pytest.raises(RuntimeError, match="two spaces"):
+        bpy.ops.indoor.shortest_path()
+    assert settings.path_text == topology.describe_path(model, expect)
+
+
+# --------------------------------------------------------------------------- Changes
+@pytest.fixture(scope="module")
+def change_demo():
+    return bu.engine_module("synthetic").preset("change_demo", seed=0, target_points=80_000)
+
+
+def _attr(mesh, name, prop="value"):
+    a = mesh.attributes[name]
+    out = np.empty(len(a.data), dtype=np.int32 if a.data_type == "INT" else np.float32)
+    a.data.foreach_get(prop, out)
+    return out
+
+
+def test_detect_changes_on_active_scan(addon, change_demo):
+    scene = bu.fresh_scene()
+    bridge = addon.bridge
+    bridge.model_to_objects(change_demo.truth, scene=scene)
+    scan = bridge.point_cloud_to_object(change_demo.cloud, name="new scan")
+    _select(scan)
+    assert bpy.ops.indoor.detect_changes(use_active=True) == {"FINISHED"}
+    change = bu.engine_module("change")
+    expect = change.detect_changes(change_demo.truth, bridge.object_to_cloud(scan))
+    mesh = scan.data
+    np.testing.assert_array_equal(_attr(mesh, "change_type"), expect.point_type)
+    np.testing.assert_array_equal(_attr(mesh, "change_distance"), expect.distance.astype(np.float32))
+    assert mesh.attributes["change_type"].domain == "POINT"
+    # the synthetic truth: points of new structure are mostly classified new, old ones existing
+    is_new = change_demo.cloud.fields["new"].astype(bool)
+    assert np.mean(expect.point_type[is_new] == 1) > 0.8
+    assert np.mean(expect.point_type[~is_new] == 0) > 0.9
+    # colours: new red, existing grey; the points material reads the active colour attribute
+    rgba = np.empty(len(mesh.vertices) * 4, np.float32)
+    mesh.attributes["change_type_color"].data.foreach_get("color_srgb", rgba)
+    rgb = rgba.reshape(-1, 4)[:, :3]
+    np.testing.assert_allclose(rgb[expect.point_type == 1][0], bridge.TYPE_COLORS_CHANGE[1], atol=1 / 255)
+    np.testing.assert_allclose(rgb[expect.point_type == 0][0], bridge.TYPE_COLORS_CHANGE[0], atol=1 / 255)
+    assert mesh.color_attributes.active_color.name == "change_type_color"
+    mat = bpy.data.materials["Indoor Changes"]
+    assert mat.node_tree.nodes["Change colour"].attribute_name == "change_type_color"
+    scene.indoor.change_color_mode = "DISTANCE"  # the panel's switch
+    assert mesh.color_attributes.active_color.name == "change_distance_color"
+    assert mat.node_tree.nodes["Change colour"].attribute_name == "change_distance_color"
+    # surfaces coloured by coverage, redundant ones flagged
+    faces = list(scene.collection.children["Changes"].objects)
+    assert len(faces) == len(expect.coverage_keys)
+    cov = dict(zip(expect.coverage_keys, expect.coverage))
+    for o in faces:
+        assert o["coverage"] == pytest.approx(cov[o["indoor_patch"]])
+        assert o["indoor_flagged"] == (o["indoor_patch"] in expect.redundant)
+        assert _attr(o.data, "coverage")[0] == pytest.approx(cov[o["indoor_patch"]], abs=1e-6)
+    assert sum(o["indoor_flagged"] for o in faces) == len(expect.redundant) >= 1
+    summary = json.loads(scene.indoor.change_summary)
+    assert summary["new"] == int(np.sum(expect.point_type == 1)) and summary["redundant"] == expect.redundant
+
+
+def test_detect_changes_bad_file_leaves_scene(addon, change_demo, tmp_path):
+    scene = bu.fresh_scene()
+    addon.bridge.model_to_objects(change_demo.truth, scene=scene)
+    bad = tmp_path / "broken.ply"
+    bad.write_bytes(b"ply\nformat nonsense\n")
+    before = bu.scene_state()
+    with pytest.raises(RuntimeError, match="broken.ply"):
+        bpy.ops.indoor.detect_changes(filepath=str(bad))
+    assert bu.scene_state() == before and scene.indoor.change_summary == ""
+
+
+# --------------------------------------------------------------------------- Evaluate
+def test_evaluate_against_reference_file(addon, tmp_path):
+    demo = bu.engine_module("synthetic").preset("eval_demo", seed=0, target_points=5_000)
+    scene = bu.fresh_scene()
+    addon.bridge.model_to_objects(demo.variants["incomp"], scene=scene)  # the corridor is missing
+    ref = tmp_path / "truth.json"
+    ref.write_text(demo.truth.to_json())
+    assert bpy.ops.indoor.evaluate(filepath=str(ref), out_dir=str(tmp_path / "eval")) == {"FINISHED"}
+    ev = bu.engine_module("evaluation")
+    expect = ev.evaluate(demo.variants["incomp"], demo.truth)
+    summary = json.loads(scene.indoor.eval_summary)
+    li = expect.localisation_index
+    assert summary["completeness"] == pytest.approx(expect.curves["all"]["completeness"][li])
+    assert summary["correctness"] == pytest.approx(expect.curves["all"]["correctness"][li])
+    assert summary["missing"] == expect.missing and len(expect.missing) >= 1
+    assert summary["completeness"] < 0.9 and summary["correctness"] > 0.95
+    img = bpy.data.images[addon.bridge.EVALUATION_IMAGE]
+    assert img.packed_file is not None and tuple(img.size) == (1200, 380)
+    objs = list(scene.collection.children["Evaluation"].objects)
+    ref_objs = [o for o in objs if o.name.startswith("Reference ")]
+    assert len(ref_objs) == int(np.sum(expect.visible))
+    assert {o["indoor_patch"] for o in ref_objs if o["indoor_flagged"]} == set(expect.missing)
+    for o in ref_objs:  # missing surfaces are red
+        if o["indoor_flagged"]:
+            assert o.color[0] > 0.8 and o.color[1] < 0.5
+    assert os.path.exists(tmp_path / "eval" / "curves.png")
+
+
+def test_evaluate_bad_reference_leaves_scene(addon, tmp_path):
+    demo = bu.engine_module("synthetic").preset("eval_demo", seed=0, target_points=5_000)
+    scene = bu.fresh_scene()
+    addon.bridge.model_to_objects(demo.truth, scene=scene)
+    bad = tmp_path / "nothing.ifc"
+    bad.write_text("not ifc")
+    before = bu.scene_state()
+    with pytest.raises(RuntimeError, match="nothing.ifc"):
+        bpy.ops.indoor.evaluate(filepath=str(bad))
+    assert bu.scene_state() == before and scene.indoor.eval_summary == ""
+
+
+# --------------------------------------------------------------------------- modal reconstruct
+def test_reconstruct_job_runs_in_a_thread_and_cancels(addon, office):
+    job = addon.operators.ReconstructJob(office.cloud, "manhattan", 0)
+    fractions = []
+    orig = job._progress
+
+    def spy(f, m=""):
+        fractions.append(f)
+        orig(f, m)
+
+    job._progress = spy
+    job.start()
+    assert job.join(120)
+    assert job.error is None and not job.cancelled and job.model is not None
+    assert fractions and fractions[-1] == pytest.approx(1.0) and job.fraction == pytest.approx(1.0)
+    assert len(job.model.spaces) >= 2
+    # cancelled before the engine starts its work: Cancelled at the first check, no model
+    job2 = addon.operators.ReconstructJob(office.cloud, "manhattan", 0)
+    job2.cancel()
+    job2.start()
+    assert job2.join(60)
+    assert job2.cancelled and job2.model is None and job2.error is None
