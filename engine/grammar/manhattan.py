@@ -22,6 +22,14 @@ Departures from SPEC.md §2 (each needed by a test on synthetic or real scans):
   reaches a ceiling under which it stands (:func:`_reaches_ceiling`): furniture faces
   would otherwise cut rooms into slices whose common faces look closed. Where no wall
   bounds the seen ceiling, the ceiling's seen extent bounds the grid.
+* The ceiling (seen extent, "under a ceiling", top-face index) is the horizontal points
+  within δ of its level *or* topmost in their ``level_cell`` cell and at most
+  ``wall_top_band`` below it (:func:`_ceiling_mask`): on the real TLS scans the ceiling
+  reads up to 9 cm low 5–8 m from the scanner. Its seen extent is that of its largest
+  connected group of occupied cells (area, not a point percentile: the far end of a
+  scan is sparse), and the grid ends there at the outermost weakly seen wall surface
+  (≥ ``min_bound_wall_area``) reaching the ceiling height within ``max_wall_thickness``
+  of that edge (:func:`_closing_wall`; room_scan1's far end wall, seen only in patches).
 * Z cuts: the floor and every *ceiling level* of the storey (a level with nothing above
   it), so rooms get their own ceiling heights; desks and shelves (surfaces with something
   above and below) make no cut.
@@ -96,6 +104,75 @@ def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyF
     return False
 
 
+def _seen_extent(xy: np.ndarray, axis: int, cell: float) -> tuple[float, float]:
+    """Seen extent of the main ceiling along one axis, metres.
+
+    ``xy`` : (n, 2) float64 horizontal coordinates of the ceiling's points, metres. The
+    points are binned into ``cell`` × ``cell`` cells (``level_cell``); the largest
+    8-connected group of occupied cells is the ceiling (stray patches seen through
+    windows are not, so no percentile is needed), and the outer edges of its outermost
+    cells along ``axis`` give the extent. Cells, not points: a terrestrial scan
+    is far denser near the scanner, so a point percentile would cut off the sparsely seen
+    far end of a ceiling (room_scan1: 6.6 m instead of 7.75 m).
+    """
+    from scipy import ndimage
+
+    c = np.floor(xy / cell).astype(np.int64)
+    c0 = c.min(axis=0)
+    c -= c0
+    grid = np.zeros(tuple(c.max(axis=0) + 1), dtype=bool)
+    grid[c[:, 0], c[:, 1]] = True
+    lab, n = ndimage.label(grid, structure=np.ones((3, 3), dtype=bool))
+    if n > 1:
+        sizes = np.bincount(lab.ravel())[1:]
+        grid = lab == (int(np.argmax(sizes)) + 1)
+    idx = np.argwhere(grid)[:, axis] + c0[axis]
+    return float(idx.min() * cell), float((idx.max() + 1) * cell)
+
+
+def _closing_wall(edge: float, side: int, weak, reach: float) -> float:
+    """Where the grid ends beyond the last wall: the outermost sparsely seen wall surface
+    (``weak``: positions, metres, of surfaces holding at least ``min_bound_wall_area`` and
+    reaching a ceiling) within ``reach`` of the ceiling's seen ``edge`` (a far end wall seen
+    only in patches, behind furniture), else the edge itself. ``side`` −1: low end, +1: high end.
+    """
+    near = [w for w in (weak or ()) if abs(w - edge) <= reach]
+    if not near:
+        return float(edge)
+    return float(max(near) if side > 0 else min(near))
+
+
+def _ceiling_mask(p: np.ndarray, hor: np.ndarray, level: float, frame: StoreyFrame,
+                  params: ManhattanParams) -> np.ndarray:
+    """Which points lie on the ceiling at ``level`` (z, metres): (n,) bool.
+
+    ``p`` : (n, 3) float64 storey points, metres; ``hor`` : (n,) bool, normal along z.
+    A horizontal point is on it when it lies within the shape buffer δ of the level, or
+    when it is the top surface of its ``level_cell`` cell in the storey (nothing above
+    it within δ) and at most ``wall_top_band`` below the level. The second part follows
+    a ceiling that reads lower far from a terrestrial scanner (room_scan1/2: the ceiling
+    at +1.65 m reads 1.56–1.59 m 5–8 m away, the floor 3–5 cm low: a range-dependent
+    error of the scans, not a step), and stops at a real step (a soffit or a lower
+    ceiling more than the band down). Extension of SPEC.md rule 1.
+    """
+    d = params.shape_buffer
+    m = hor & (np.abs(p[:, 2] - level) <= d)
+    cand = hor & (p[:, 2] <= frame.ceiling + d)
+    if not cand.any():
+        return m
+    k = np.floor(p[cand, :2] / params.level_cell).astype(np.int64)
+    k -= k.min(axis=0)
+    key = k[:, 0] * (int(k[:, 1].max()) + 1) + k[:, 1]
+    uk, inv = np.unique(key, return_inverse=True)
+    top = np.full(len(uk), -np.inf)
+    z = p[cand, 2]
+    np.maximum.at(top, inv.reshape(-1), z)
+    zt = top[inv.reshape(-1)]
+    ok = (z >= zt - d) & (zt >= level - params.wall_top_band) & (zt <= level + d)
+    m[np.flatnonzero(cand)[ok]] = True
+    return m
+
+
 def _cell_lookup(xy: np.ndarray, cell: float):
     """A membership test for the level_cell cells holding ``xy`` (n, 2) metres:
     returns f(k) → bool for (m, 2) int cell indices."""
@@ -139,8 +216,8 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
 
     # place: peaks of x (points facing x) and y (points facing y) → intervals
     hor = along[2]
-    ceiling_cells = [_cell_lookup(p[hor & (np.abs(p[:, 2] - c) <= d)][:, :2], params.level_cell)
-                     for c in frame.ceilings]
+    on_ceiling = [_ceiling_mask(p, hor, c, frame, params) for c in frame.ceilings]
+    ceiling_cells = [_cell_lookup(p[m][:, :2], params.level_cell) for m in on_ceiling]
     raw = []
     for a in (0, 1):
         o, sel = 1 - a, along[a]
@@ -167,15 +244,23 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
         # (first the top ceiling's extent, then that of every horizontal surface in the
         # upper half of the storey: lower ceilings, soffits seen beyond an opening)
         mid = (frame.floor + frame.ceiling) / 2
-        for sel in (hor & (np.abs(p[:, 2] - frame.ceiling) <= d), hor & (p[:, 2] > mid)):
-            ext = p[sel, a]
-            if len(ext) < 10:
+        weak = None
+        for first, sel in ((True, on_ceiling[-1]), (False, hor & (p[:, 2] > mid))):
+            if int(sel.sum()) < 10:
                 continue
-            lo_e, hi_e = np.percentile(ext, [params.extent_percentile, 100 - params.extent_percentile])
+            if first:
+                lo_e, hi_e = _seen_extent(p[sel, :2], a, params.level_cell)
+            else:
+                lo_e, hi_e = np.percentile(p[sel, a], [params.extent_percentile, 100 - params.extent_percentile])
+            if weak is None:  # sparsely seen surfaces facing a that reach a ceiling
+                sa = along[a]
+                weak = [pk.position for pk in histogram_peaks(p[sa, a], np.column_stack([p[sa, o], p[sa, 2]]),
+                                                              params, spacing, params.min_bound_wall_area)
+                        if _reaches_ceiling(cand, a, pk.position, frame, params, spacing, None, cand[:, a])]
             if not peaks or lo_e < peaks[0] - params.max_wall_thickness:
-                peaks.insert(0, float(lo_e))
+                peaks.insert(0, _closing_wall(lo_e, -1, weak, params.max_wall_thickness))
             if hi_e > peaks[-1] + params.max_wall_thickness:
-                peaks.append(float(hi_e))
+                peaks.append(_closing_wall(hi_e, +1, weak, params.max_wall_thickness))
         if len(peaks) < 2:
             raise ReconstructionError(f"storey {storey}: fewer than two wall surfaces facing "
                                       f"{'xy'[a]} (found {len(peaks)}); is the cloud aligned?")
@@ -202,6 +287,8 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     FX = faces_on(0, X, Y, Z, 1, 2)  # (nx+1, ny, nz)
     FY = faces_on(1, Y, X, Z, 0, 2)  # (ny+1, nx, nz)
     FZ = faces_on(2, Z, X, Y, 0, 1)  # (nz+1, nx, ny)
+    for q, m in enumerate(on_ceiling):  # a ceiling face: the points on that ceiling
+        FZ[q + 1] = grid_face_index(p[m][:, :2], X, Y, spacing, margin)
 
     # classify, top-down so that "top touches an interior shape" is known
     t_max = params.max_wall_thickness

@@ -60,6 +60,11 @@ class ManhattanParams:
     extent_percentile: float = 0.5
     """Where no wall bounds the seen ceiling, the grid ends at this percentile (and 100 −
     it) of the ceiling points' coordinates (robust to a few stray points), percent."""
+    min_bound_wall_area: float = 0.2
+    """Where the grid would end at a ceiling's seen extent, a vertical surface holding at
+    least this much (points × σ², m²) that reaches the ceiling and lies within
+    ``max_wall_thickness`` of that extent closes it instead (a far end wall seen only in
+    patches between furniture), m²."""
     min_level_area: float = 2.0
     """A floor or ceiling level must hold at least this much surface, m²."""
     min_storey_height: float = 1.8
