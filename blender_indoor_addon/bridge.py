@@ -1002,6 +1002,7 @@ def patches_to_objects(patches, values, *, collection: str, attribute: str, flag
         obj.show_transparent = True
         obj["indoor_patch"] = p.key
         obj["indoor_shape_id_of"] = p.shape_id
+        obj["indoor_kind"] = p.kind
         obj[attribute] = float(v)
         obj["indoor_flagged"] = flag
         coll.objects.link(obj)

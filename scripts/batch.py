@@ -1,4 +1,4 @@
-"""Batch conversion inside Blender: scans → IFC + JSON (as ``indoor convert``) + a .blend each.
+"""Batch conversion inside Blender: scans → IFC + JSON (as ``indoor convert``) + .blend + PNG each.
 
     blender -b -P scripts/batch.py -- SCAN [SCAN ...] --out DIR [--method auto] [--seed 0]
     .venv/bin/python scripts/batch.py SCAN [SCAN ...] --out DIR         # with the bpy module
@@ -6,7 +6,8 @@
 For each scan: ``engine.reconstruct.convert_file`` writes ``DIR/<name>.ifc`` and
 ``DIR/<name>.json``; the add-on's Import scan operator builds the point mesh on a fresh
 scene, the bridge adds the model (collections Spaces, Walls, ..., hidden Cells), saved as
-``DIR/<name>.blend``. A bad file is reported on one line and the batch goes
+``DIR/<name>.blend``; then a preview ``DIR/<name>.png`` is rendered (Workbench by default,
+headless; the demo's render: a top view cut below the ceiling and an oblique view). A bad file is reported on one line and the batch goes
 on; ``DIR/batch.json`` lists what succeeded and what failed. Exit code 0 only when every
 scan succeeded.
 """
@@ -53,6 +54,11 @@ def parse_args(argv):
     p.add_argument("--method", choices=("auto", "manhattan", "generic"), default="auto")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-ifc", action="store_true", help="skip the IFC file")
+    p.add_argument("--engine", choices=("workbench", "cycles"), default="workbench", help="preview renderer")
+    p.add_argument("--resolution", type=int, default=600, help="height of the preview, pixels (0: none)")
+    p.add_argument("--section-drop", type=float, default=0.2,
+                   help="the previews hide points above this share of the room height below its top")
+    p.add_argument("--preview-point-radius", type=float, default=0.02, help="drawn point radius, metres")
     return p.parse_args(argv)
 
 
@@ -79,8 +85,28 @@ def convert_one(pkg, scan, args):
     with atomic_path(blend, suffix=".blend") as tmp:
         os.remove(tmp)  # else Blender keeps the empty placeholder as a ".blend1" backup
         bpy.ops.wm.save_as_mainfile(filepath=tmp, copy=True, compress=True)
-    return {"scan": scan, "ifc": result.ifc_path, "json": result.json_path, "blend": blend,
-            "convert_s": round(t1 - t0, 3), "blender_s": round(time.perf_counter() - t1, 3)}
+    t2 = time.perf_counter()
+    png = None
+    if args.resolution > 0:  # after saving: the render adds cameras and changes visibility
+        demo = _demo_module()
+        state = {"args": args, "out": args.out, "package": pkg, "preview_name": name + ".png",
+                 "scan_object": bpy.context.view_layer.objects.active}
+        demo.stage_render(state)
+        png = os.path.join(args.out, name + ".png")
+    return {"scan": scan, "ifc": result.ifc_path, "json": result.json_path, "blend": blend, "png": png,
+            "convert_s": round(t1 - t0, 3), "blender_s": round(t2 - t1, 3),
+            "render_s": round(time.perf_counter() - t2, 3)}
+
+
+def _demo_module():
+    """scripts/demo.py (its render stage), imported by path."""
+    name = "indoor_demo_script"
+    if name not in sys.modules:
+        spec = importlib.util.spec_from_file_location(name, os.path.join(ROOT, "scripts", "demo.py"))
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    return sys.modules[name]
 
 
 def main(argv=None):

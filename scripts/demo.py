@@ -9,6 +9,11 @@ reconstructed model in "Indoor Model": Spaces, Walls, ..., hidden Cells), ``mode
 below the ceiling and an oblique view with the see-through spaces and walls, side by side)
 and ``summary.json`` (the cloud summary, the model report, per-stage timings, versions).
 
+Unless ``--synthetic none``, the same stages run on a synthetic ``office_mw`` scan generated on
+the fly (7 rooms and a corridor; into ``OUT/office_mw/``); unless ``--no-changes``, the
+``change_demo`` preset's old model and newer scan go through Detect changes (into
+``OUT/changes/``, its preview shows existing points grey, new red, room faces by coverage).
+
 Each stage is a function ``stage_<name>(state) -> dict`` that reads and extends ``state``;
 later capabilities (evaluation, change detection) add stages to :data:`STAGES`.
 """
@@ -82,6 +87,13 @@ def parse_args(argv):
                    help="the previews hide points above this share of the room height below its top")
     p.add_argument("--preview-point-radius", type=float, default=0.02,
                    help="drawn point radius in the preview, metres")
+    p.add_argument("--synthetic", default="office_mw",
+                   help="also reconstruct this engine.synthetic preset's scan, into OUT/<preset>/ "
+                        "('none' to skip)")
+    p.add_argument("--synthetic-points", type=int, default=150_000,
+                   help="about how many points the synthetic scans have")
+    p.add_argument("--changes", action=argparse.BooleanOptionalAction, default=True,
+                   help="also run change detection on change_demo, into OUT/changes/")
     return p.parse_args(argv)
 
 
@@ -104,7 +116,7 @@ def stage_import(state):
     """The scan through the add-on's Import scan operator; the engine's summary of it."""
     import bpy
 
-    scan = os.path.abspath(state["args"].scan)
+    scan = os.path.abspath(state.get("scan_path") or state["args"].scan)
     result = bpy.ops.indoor.import_scan(filepath=scan, point_radius=state["args"].point_radius)
     if result != {"FINISHED"}:
         raise SystemExit(f"demo: importing {scan} failed ({result}); see the log above")
@@ -182,7 +194,8 @@ def _robust_bounds(obj):
 
 def stage_render(state):
     """Previews (Cycles CPU or Workbench): top view and oblique view, both with the points above
-    a section height hidden so the room is seen from inside; joined side by side."""
+    a section height hidden so the room is seen from inside; joined side by side into
+    ``state["out"]/state.get("preview_name", "preview.png")`` (also used by batch.py)."""
     import bpy
     import numpy as np
 
@@ -203,19 +216,25 @@ def stage_render(state):
     nt = mat.node_tree
     attr = nt.nodes.new("ShaderNodeAttribute")
     attr.attribute_type = "GEOMETRY"
-    attr.attribute_name = "height_color"
+    attr.attribute_name = state.get("preview_attribute") or "height_color"
     em = nt.nodes.new("ShaderNodeEmission")
     nt.links.new(attr.outputs["Color"], em.inputs["Color"])
     nt.links.new(em.outputs["Emission"], nt.nodes["Material Output"].inputs["Surface"])
     shading = scene.display.shading
     shading.light = "FLAT"
     shading.color_type = "VERTEX"  # "Attribute" in the UI: the active colour attribute
-    if not obj.data.color_attributes:  # a scan without colour: colour by height for the preview
+    if state.get("preview_attribute"):  # e.g. the change colours
+        attr_layer = obj.data.color_attributes.get(state["preview_attribute"])
+        obj.data.color_attributes.active_color = attr_layer
+        obj.data.color_attributes.render_color_index = obj.data.color_attributes.active_color_index
+        out["colour"] = state["preview_attribute"]
+    elif not obj.data.color_attributes:  # a scan without colour: colour by height for the preview
         lo_z, hi_z = lo[2], hi[2]
         bridge.add_height_colors(obj, z_range=(lo_z, hi_z))
         out["colour"] = "height"
     else:
         out["colour"] = "scan colours"
+        attr.attribute_name = "color"
     bridge.set_display(obj, point_radius=args.preview_point_radius, material=mat)
     shading.show_cavity = False
     shading.show_shadows = False
@@ -254,7 +273,8 @@ def stage_render(state):
     spaces = top.children.get("Spaces") if top is not None else None
     if spaces is not None:  # the top view shows the plan: no see-through boxes over it
         spaces.hide_render = True
-    paths.append(os.path.join(state["out"], ".preview_top.png"))
+    name = state.get("preview_name", "preview.png")
+    paths.append(os.path.join(state["out"], f".{name}.top.png"))
     t = time.perf_counter()
     _render_view(scene, cam_top, paths[-1])
     out["top_render_s"] = round(time.perf_counter() - t, 3)
@@ -270,14 +290,14 @@ def stage_render(state):
     cam_ob.data.clip_start = 0.1
     cam_ob.data.clip_end = 10 * radius
     scene.render.resolution_x, scene.render.resolution_y = int(h * 4 / 3), h
-    if spaces is not None:
+    if spaces is not None and not state.get("preview_attribute"):  # change previews: no boxes
         spaces.hide_render = False
-    paths.append(os.path.join(state["out"], ".preview_oblique.png"))
+    paths.append(os.path.join(state["out"], f".{name}.oblique.png"))
     t = time.perf_counter()
     _render_view(scene, cam_ob, paths[-1])
     out["oblique_render_s"] = round(time.perf_counter() - t, 3)
 
-    preview = os.path.join(state["out"], "preview.png")
+    preview = os.path.join(state["out"], name)
     _join_images(paths, preview, state["package"].engine.fileutil.atomic_path)
     for p in paths:
         os.remove(p)
@@ -316,18 +336,84 @@ def _join_images(paths, dest, atomic_path):
             bpy.data.images.remove(im)
 
 
+def stage_synthetic_scan(state):
+    """A synthetic scan of ``args.synthetic`` (engine.synthetic), written as ``scan.ply``; the
+    stages after it treat it like any scan file. Its true model is kept for the summary."""
+    synthetic = importlib.import_module(PACKAGE + ".engine.synthetic")
+    write_ply = importlib.import_module(PACKAGE + ".engine.io").write_ply
+    args = state["args"]
+    scene = synthetic.preset(state["preset"], seed=args.seed, target_points=args.synthetic_points)
+    path = os.path.join(state["out"], "scan.ply")
+    write_ply(path, scene.cloud, dtype="f4")
+    state["scan_path"] = path
+    state["truth"] = scene.truth
+    state["synthetic"] = scene
+    truth = scene.truth
+    return {"preset": state["preset"], "points": len(scene.cloud), "scan": os.path.basename(path),
+            "truth": {"spaces": len(truth.spaces), "walls": len(truth.walls), "doors": len(truth.doors)}}
+
+
+def stage_old_model(state):
+    """change_demo: the old building's model (the preset's truth) put in the scene by the bridge."""
+    import bpy
+
+    bridge = importlib.import_module(PACKAGE + ".blender_indoor_addon.bridge")
+    by_coll = bridge.model_to_objects(state["truth"], scene=bpy.context.scene)
+    state["model"] = state["truth"]
+    return {"collections": {k: len(v) for k, v in by_coll.items()}}
+
+
+def stage_changes(state):
+    """The add-on's Detect changes operator: the imported (newer) scan against the stored model;
+    the preview shows existing points grey and new ones red, room faces by coverage."""
+    import bpy
+    import numpy as np
+
+    obj = state["scan_object"]
+    bpy.context.view_layer.objects.active = obj
+    result = bpy.ops.indoor.detect_changes(use_active=True)
+    if result != {"FINISHED"}:
+        raise SystemExit(f"demo: change detection failed ({result}); see the log above")
+    bridge = importlib.import_module(PACKAGE + ".blender_indoor_addon.bridge")
+    state["preview_attribute"] = bridge.CHANGE_TYPE_COLOR
+    summary = json.loads(bpy.context.scene.indoor.change_summary)
+    top = bpy.context.scene.collection.children.get(bridge.MODEL_COLLECTION)
+    if top is not None:  # the preview shows the change colours, not the model's boxes
+        for coll in top.children:
+            coll.hide_render = True
+    changes = bpy.context.scene.collection.children.get(bridge.CHANGES_COLLECTION)
+    for face in (changes.objects if changes is not None else ()):  # floors/ceilings would hide the points
+        face.hide_render = face.get("indoor_kind") != "wall"
+    truth_new = state["synthetic"].cloud.fields.get("new")
+    if truth_new is not None:  # the preset knows which points belong to the new structure
+        mesh = obj.data
+        t = np.empty(len(mesh.vertices), dtype=np.int32)
+        mesh.attributes[bridge.CHANGE_TYPE].data.foreach_get("value", t)
+        is_new = np.asarray(truth_new).astype(bool)
+        summary["true_new_found"] = float(np.mean(t[is_new] == 1)) if is_new.any() else None
+        summary["true_existing_kept"] = float(np.mean(t[~is_new] == 0)) if (~is_new).any() else None
+    return summary
+
+
 STAGES = [("setup", stage_setup), ("import", stage_import), ("reconstruct", stage_reconstruct),
           ("ifc", stage_ifc), ("render", stage_render), ("save_blend", stage_save_blend)]
 """(name, function) in order; each returns a JSON-ready dict stored under its name."""
+SYNTHETIC_STAGES = [("setup", stage_setup), ("synthetic_scan", stage_synthetic_scan), ("import", stage_import),
+                    ("reconstruct", stage_reconstruct), ("ifc", stage_ifc), ("render", stage_render),
+                    ("save_blend", stage_save_blend)]
+"""The same on a synthetic scan generated on the fly (into OUT/<preset>/)."""
+CHANGE_STAGES = [("setup", stage_setup), ("synthetic_scan", stage_synthetic_scan), ("old_model", stage_old_model),
+                 ("import", stage_import), ("changes", stage_changes), ("render", stage_render),
+                 ("save_blend", stage_save_blend)]
+"""Change detection on change_demo (into OUT/changes/): old model vs. newer scan."""
 
 
-def run(args):
-    out = os.path.abspath(args.out)
+def _run_stages(args, stages, out, scan_label, **extra):
     os.makedirs(out, exist_ok=True)
-    state = {"args": args, "out": out}
-    summary = {"scan": os.path.relpath(os.path.abspath(args.scan), ROOT), "stages": {}, "timings_s": {}}
+    state = {"args": args, "out": out, **extra}
+    summary = {"scan": scan_label, "stages": {}, "timings_s": {}}
     t_all = time.perf_counter()
-    for name, fn in STAGES:
+    for name, fn in stages:
         t = time.perf_counter()
         summary["stages"][name] = fn(state)
         summary["timings_s"][name] = round(time.perf_counter() - t, 3)
@@ -335,6 +421,18 @@ def run(args):
     summary["timings_s"]["total"] = round(time.perf_counter() - t_all, 3)
     state["package"].engine.fileutil.atomic_write_text(
         os.path.join(out, "summary.json"), json.dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def run(args):
+    out = os.path.abspath(args.out)
+    summary = _run_stages(args, STAGES, out, os.path.relpath(os.path.abspath(args.scan), ROOT))
+    if args.synthetic != "none":
+        _run_stages(args, SYNTHETIC_STAGES, os.path.join(out, args.synthetic), f"synthetic {args.synthetic}",
+                    preset=args.synthetic)
+    if args.changes:
+        _run_stages(args, CHANGE_STAGES, os.path.join(out, "changes"), "synthetic change_demo",
+                    preset="change_demo")
     return summary
 
 

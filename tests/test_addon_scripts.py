@@ -22,9 +22,20 @@ def _run(script, args, timeout=300):
 def test_demo_writes_blend_summary_and_preview(tmp_path):
     out = tmp_path / "demo"
     proc = _run(os.path.join(ROOT, "scripts", "demo.py"),
-                ["--out", str(out), "--resolution", "120", "--engine", "workbench"])
+                ["--out", str(out), "--resolution", "80", "--engine", "workbench", "--synthetic-points", "40000"])
     assert proc.returncode == 0, proc.stderr[-3000:]
-    assert sorted(os.listdir(out)) == ["model.ifc", "preview.png", "scan.blend", "summary.json"]
+    assert sorted(os.listdir(out)) == ["changes", "model.ifc", "office_mw", "preview.png", "scan.blend",
+                                       "summary.json"]
+    assert sorted(os.listdir(out / "office_mw")) == ["model.ifc", "preview.png", "scan.blend", "scan.ply",
+                                                     "summary.json"]
+    assert sorted(os.listdir(out / "changes")) == ["preview.png", "scan.blend", "scan.ply", "summary.json"]
+    office = json.loads((out / "office_mw" / "summary.json").read_text())["stages"]
+    assert office["synthetic_scan"]["truth"]["spaces"] == 8  # 7 rooms and the corridor
+    assert office["reconstruct"]["collections"]["Spaces"] == office["reconstruct"]["report"]["summary"]["spaces"]
+    assert office["reconstruct"]["collections"]["Spaces"] >= 6
+    changes = json.loads((out / "changes" / "summary.json").read_text())["stages"]["changes"]
+    assert changes["true_new_found"] > 0.8 and changes["true_existing_kept"] > 0.9
+    assert changes["new"] > 0 and len(changes["redundant"]) >= 1
     summary = json.loads((out / "summary.json").read_text())
     imp = summary["stages"]["import"]
     assert imp["vertices"] == imp["cloud"]["points"] == 112586
@@ -45,11 +56,19 @@ def test_demo_writes_blend_summary_and_preview(tmp_path):
 def test_batch_reports_a_bad_file_and_exits_non_zero(tmp_path):
     bad = tmp_path / "broken.ply"
     bad.write_bytes(b"not a ply at all")
+    good = os.path.join(ROOT, "tests", "data", "room_scan2.pcd")
     out = tmp_path / "out"
-    proc = _run(os.path.join(ROOT, "scripts", "batch.py"), [str(bad), "--out", str(out)])
+    proc = _run(os.path.join(ROOT, "scripts", "batch.py"), [str(bad), good, "--out", str(out), "--resolution", "60"])
     assert proc.returncode == 1, proc.stderr[-3000:]
     report = json.loads((out / "batch.json").read_text())
-    assert report["done"] == []
+    assert [d["scan"] for d in report["done"]] == [good]  # the batch went on past the bad file
     assert [f["scan"] for f in report["failed"]] == [str(bad)]
     assert "broken.ply" in report["failed"][0]["error"]
-    assert sorted(os.listdir(out)) == ["batch.json"]  # nothing half-written
+    # nothing half-written for the bad file; IFC + JSON + .blend + PNG for the good one
+    assert sorted(os.listdir(out)) == ["batch.json", "room_scan2.blend", "room_scan2.ifc", "room_scan2.json",
+                                       "room_scan2.png"]
+    with open(out / "room_scan2.png", "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+    import ifcopenshell
+
+    assert len(ifcopenshell.open(str(out / "room_scan2.ifc")).by_type("IfcSpace")) >= 1
