@@ -16,79 +16,32 @@ from typing import Optional
 
 import numpy as np
 
-from .errors import InputError
-from .model import BuildingModel, ShapeType
+from .model import BuildingModel
 from .pointcloud import PointCloud
 from .progress import Progress
 
-__all__ = ["METHODS", "manhattan_share", "choose_method", "reconstruct", "model_report", "convert_file", "ConvertResult"]
+__all__ = ["METHODS", "choose_method", "reconstruct", "model_report", "convert_file", "ConvertResult"]
 
 log = logging.getLogger(__name__)
 
 METHODS = ("auto", "manhattan", "generic")
 
 
-AUTO_VOXEL = 0.03
-"""Voxel size (m) of the working cloud the auto choice extracts planes from."""
-AUTO_TOLERANCE = np.radians(5.0)
-"""A wall plane within this angle (radians) of the dominant orthogonal pair is Manhattan."""
-AUTO_THRESHOLD = 0.85
-"""``--method auto`` uses the Manhattan grammar when at least this share of the wall-plane
-area is Manhattan (measured: synthetic Manhattan presets ≥ 0.99, the real PCL room scans
-0.95–0.99, syn_house 0.61–0.66, hexagon_hall 0.0)."""
-
-
-def manhattan_share(cloud: PointCloud, *, rng=0, progress=None, should_stop=None) -> float:
-    """Share of the wall-plane area whose normal lies within 5° of two perpendicular
-    horizontal directions (the best pair).
-
-    Wall planes come from :func:`engine.segmentation.extract_planes` on a 3 cm voxel cloud;
-    their azimuths φ are folded modulo 90° (``exp(4iφ)``), the dominant folded direction is
-    the area-weighted circular mean, and the score is the area share within
-    :data:`AUTO_TOLERANCE` of it. Planes, not point normals: per-point normals of a 2 cm
-    mobile scan scatter by several degrees (office_mw mobile scored only 0.53 on normals
-    within 5°), while fitted planes are accurate to a fraction of a degree.
-
-    Returns
-    -------
-    float in [0, 1]; 0.0 when no wall plane is found.
-    """
-    from .errors import ReconstructionError
-    from .segmentation import NormalParams, PlaneParams, estimate_normals, extract_planes, voxel_downsample
-
-    p = Progress.wrap(progress, should_stop)
-    work, _, _ = voxel_downsample(cloud, AUTO_VOXEL)
-    p(0.2, "normals")
-    work = estimate_normals(work.with_(normals=None), NormalParams())
-    try:
-        planes = [q for q in extract_planes(work, PlaneParams(), rng=rng, progress=p.sub(0.3, 1.0))
-                  if q.kind == "wall"]
-    except ReconstructionError:
-        return 0.0
-    if not planes:
-        return 0.0
-    phi = np.array([np.arctan2(q.normal[1], q.normal[0]) for q in planes])
-    area = np.array([q.area for q in planes], dtype=np.float64)
-    if area.sum() <= 0:
-        return 0.0
-    mode = np.angle(np.sum(area * np.exp(4j * phi)))
-    dev = np.abs(np.angle(np.exp(4j * phi) * np.exp(-1j * mode))) / 4.0
-    return float(area[dev <= AUTO_TOLERANCE].sum() / area.sum())
-
-
-def choose_method(cloud: PointCloud, *, rng=0, progress=None, should_stop=None) -> tuple[str, float]:
+def choose_method(cloud: PointCloud, *, rng=0) -> tuple[str, float]:
     """Pick ``"manhattan"`` or ``"generic"`` for ``--method auto``.
 
-    Manhattan when :func:`manhattan_share` ≥ :data:`AUTO_THRESHOLD`.
+    The score is :func:`engine.grammar.generic.manhattan_score`: the share of the RANSAC
+    wall-plane area within 3° of two perpendicular horizontal directions (planes, not
+    per-point normals, which scatter by several degrees on a 2 cm mobile scan). Manhattan
+    when it reaches ``GenericParams.manhattan_threshold`` (0.85).
 
     Returns
     -------
     (method, score) : (str, float in [0, 1])
     """
-    score = manhattan_share(cloud, rng=rng, progress=progress, should_stop=should_stop)
-    method = "manhattan" if score >= AUTO_THRESHOLD else "generic"
-    log.info("auto method: Manhattan share of wall-plane area %.2f -> %s", score, method)
-    return method, score
+    from .grammar.generic import choose_method as _choose
+
+    return _choose(cloud, rng=rng)
 
 
 def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, progress=None,
@@ -115,8 +68,9 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
     choice = {}
     if method == "auto":
         p(0.0, "choosing method")
-        method, score = choose_method(cloud, rng=rng, progress=p.sub(0.0, 0.1))
-        choice = {"method_choice": "auto", "manhattan_share": round(score, 4)}
+        method, score = choose_method(cloud, rng=rng)
+        p(0.1, f"method: {method}")
+        choice = {"method_choice": "auto", "manhattan_score": round(score, 4)}
     if method == "manhattan":
         from .grammar import reconstruct_manhattan as run
     else:

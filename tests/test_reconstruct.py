@@ -2,7 +2,10 @@
 import numpy as np
 import pytest
 
-from engine.reconstruct import AUTO_THRESHOLD, choose_method, manhattan_share, model_report
+from engine.grammar.generic import GenericParams, manhattan_score
+from engine.reconstruct import choose_method, model_report
+
+AUTO_THRESHOLD = GenericParams().manhattan_threshold
 
 
 @pytest.mark.parametrize("name, noise, expected", [
@@ -26,14 +29,14 @@ def test_manhattan_share_is_rotation_invariant():
     a = np.radians(27.0)
     m = np.eye(4)
     m[:2, :2] = [[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]
-    assert manhattan_share(cloud.transformed(m)) >= AUTO_THRESHOLD
+    assert manhattan_score(cloud.transformed(m)) >= AUTO_THRESHOLD
 
 
 def test_real_room_scan_is_manhattan(data_dir):
     from engine.io import read_point_cloud
 
     method, share = choose_method(read_point_cloud(f"{data_dir}/room_scan1.pcd"))
-    assert method == "manhattan" and share > 0.9
+    assert method == "manhattan" and share >= AUTO_THRESHOLD
 
 
 def test_report_of_truth_model():
