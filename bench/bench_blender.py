@@ -12,6 +12,10 @@ few repeats on a fresh scene each:
 * ``operator_s``  — ``bpy.ops.indoor.import_scan`` end to end (engine read included).
 
 Target (PRODUCT.md "millions of points load in seconds"): 1M points into Blender in ≤ 3 s.
+
+The same process also times ``bridge.model_to_objects`` on the true model of a 20-room grid
+plan (engine.synthetic: rooms, walls, doors, slabs; target ≤ 1 s), a second build that
+replaces the first, and drawing both topology graphs.
 """
 from __future__ import annotations
 
@@ -71,6 +75,24 @@ try:
             assert res == {"FINISHED"}, res
             r["vertices"] = len(bpy.context.view_layer.objects.active.data.vertices)
         results[os.path.basename(path)] = r
+    model_path = os.environ.get("INDOOR_BENCH_MODEL")
+    if model_path:
+        model_mod = importlib.import_module("indoor_reconstruction.engine.model")
+        with open(model_path) as f:
+            model = model_mod.BuildingModel.from_json(f.read())
+        r = {"build_s": [], "rebuild_s": [], "graphs_s": []}
+        for _ in range(repeats):
+            bpy.ops.wm.read_homefile(app_template="", use_factory_startup=True)
+            t = time.perf_counter(); by = addon.bridge.model_to_objects(model)
+            r["build_s"].append(time.perf_counter() - t)
+            t = time.perf_counter(); addon.bridge.model_to_objects(model)
+            r["rebuild_s"].append(time.perf_counter() - t)
+            t = time.perf_counter()
+            addon.bridge.graph_to_curve(model, "adjacency"); addon.bridge.graph_to_curve(model, "connectivity")
+            r["graphs_s"].append(time.perf_counter() - t)
+        r["objects"] = sum(len(v) for v in by.values())
+        r["spaces"] = len(by.get("Spaces", []))
+        results["model"] = r
     with open("/proc/self/status") as f:
         results["peak_rss_mb"] = [int(l.split()[1]) / 1024 for l in f if l.startswith("VmHWM")][0]
 finally:
@@ -93,6 +115,28 @@ def _clouds(n, rng):
     return {"xyz": plain, "xyz_rgb_i_n": full}
 
 
+ROOMS_GRID = (5, 4)
+"""Rooms of the model-building benchmark: a 5 x 4 grid of 4 m x 3.5 m rooms (20 rooms)."""
+MODEL_TARGET_S = 1.0
+"""Goal for building the objects of a 20-room model."""
+
+
+def grid_model():
+    """The true model of a 20-room plan (engine.synthetic): rooms, walls, doors, slabs."""
+    from engine.synthetic.plan import Door, FloorPlan, PlanStorey, build_truth, rooms_from_partition
+
+    nx_, ny_ = ROOMS_GRID
+    w, d = 4.0, 3.5
+    cells = [(f"Room {j * nx_ + i + 1}", [(w * i, d * j), (w * (i + 1), d * j), (w * (i + 1), d * (j + 1)),
+                                          (w * i, d * (j + 1))]) for j in range(ny_) for i in range(nx_)]
+    rooms = rooms_from_partition(cells, 0.15)
+    doors = [Door((f"Room {j * nx_ + i + 1}", f"Room {j * nx_ + i + 2}"), 0.5)
+             for j in range(ny_) for i in range(nx_ - 1)]
+    plan = FloorPlan("grid20", (PlanStorey(0.0, 2.8, "Ground floor"),), tuple(rooms), tuple(doors),
+                     interior_thickness=0.15, exterior_thickness=0.3)
+    return build_truth(plan)
+
+
 def run(out_dir: str, quick: bool) -> dict:
     """Measure; return ``{points, repeats, target_s, cases: {name: figures}, ...}``."""
     n = QUICK_POINTS if quick else POINTS
@@ -107,8 +151,13 @@ def run(out_dir: str, quick: bool) -> dict:
         with open(script, "w") as f:
             f.write(_MEASURE)
         out_json = os.path.join(tmp, "result.json")
+        model = grid_model()
+        model_path = os.path.join(tmp, "grid20.json")
+        with open(model_path, "w") as f:
+            f.write(model.to_json())
+        env = dict(os.environ, INDOOR_BENCH_MODEL=model_path)
         proc = subprocess.run([sys.executable, script, ROOT, out_json, str(repeats), *paths.values()],
-                              stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=1800)
+                              stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=1800, env=env)
         if not os.path.exists(out_json):
             raise RuntimeError("the Blender measurement failed:\n" + proc.stderr[-3000:])
         with open(out_json) as f:
@@ -127,6 +176,14 @@ def run(out_dir: str, quick: bool) -> dict:
         log.info("%s: %d points, read %.2f s, bridge %.2f s, evaluate %.2f s, operator %.2f s",
                  name, n, best["read_s"], best["bridge_s"], best["evaluate_s"], best["operator_s"])
     worst = max(c["operator_s"] for c in cases.values())
+    m = raw.get("model", {})
+    model_fig = {k: round(min(v), 3) for k, v in m.items() if isinstance(v, list)}
+    model_fig.update(objects=m.get("objects"), spaces=m.get("spaces"), shapes=len(model.shapes),
+                     target_s=MODEL_TARGET_S,
+                     meets_target=bool(model_fig and model_fig["build_s"] <= MODEL_TARGET_S))
+    log.info("20-room model: %s objects built in %.3f s (rebuild %.3f s, graphs %.3f s)",
+             model_fig.get("objects"), model_fig.get("build_s", float("nan")),
+             model_fig.get("rebuild_s", float("nan")), model_fig.get("graphs_s", float("nan")))
     return {
         "points": n,
         "repeats": repeats,
@@ -134,5 +191,6 @@ def run(out_dir: str, quick: bool) -> dict:
         "target_points": POINTS,
         "meets_target": bool(not quick and worst <= TARGET_S),
         "cases": cases,
+        "model_objects": model_fig,
         "peak_rss_mb": round(raw.get("peak_rss_mb", float("nan")), 1),
     }

@@ -321,24 +321,108 @@ def test_evaluate_bad_reference_leaves_scene(addon, tmp_path):
 
 
 # --------------------------------------------------------------------------- modal reconstruct
-def test_reconstruct_job_runs_in_a_thread_and_cancels(addon, office):
-    job = addon.operators.ReconstructJob(office.cloud, "manhattan", 0)
-    fractions = []
-    orig = job._progress
+def _drive_modal(addon, job, event_types):
+    """Run INDOOR_OT_reconstruct.modal the way the window manager would (timer events)."""
+    import time
+    from types import SimpleNamespace
 
-    def spy(f, m=""):
-        fractions.append(f)
-        orig(f, m)
+    op_cls = addon.operators.INDOOR_OT_reconstruct
+    wm = bpy.context.window_manager
+    reports = []
+    fake = SimpleNamespace(method=job.method, seed=job.seed, _object_name="office", _job=job,
+                           report=lambda kind, msg: reports.append((set(kind), msg)))
+    fake._finish = lambda ctx: op_cls._finish(fake, ctx)
+    fake._timer = wm.event_timer_add(0.1, window=bpy.context.window)
+    wm.progress_begin(0, 1000)
+    bpy.context.scene.indoor.running = True
+    seen, state, k = [], {"RUNNING_MODAL"}, 0
+    while state == {"RUNNING_MODAL"}:
+        etype = event_types[min(k, len(event_types) - 1)]
+        state = op_cls.modal(fake, bpy.context, SimpleNamespace(type=etype))
+        seen.append(bpy.context.scene.indoor.progress)
+        k += 1
+        time.sleep(0.02)
+    return state, reports, seen
 
-    job._progress = spy
-    job.start()
-    assert job.join(120)
-    assert job.error is None and not job.cancelled and job.model is not None
-    assert fractions and fractions[-1] == pytest.approx(1.0) and job.fraction == pytest.approx(1.0)
-    assert len(job.model.spaces) >= 2
-    # cancelled before the engine starts its work: Cancelled at the first check, no model
-    job2 = addon.operators.ReconstructJob(office.cloud, "manhattan", 0)
-    job2.cancel()
-    job2.start()
-    assert job2.join(60)
-    assert job2.cancelled and job2.model is None and job2.error is None
+
+def test_modal_reconstruct_progress_and_cancel(addon, office):
+    scene = bu.fresh_scene()
+    bridge = addon.bridge
+    obj = bridge.point_cloud_to_object(office.cloud, name="office")
+    ops = addon.operators
+    # cancelled (Esc) right away: the engine stops at its next check, the scene is unchanged
+    before = bu.scene_state()
+    job = ops.ReconstructJob(bridge.object_to_cloud(obj), "manhattan", 0).start()
+    state, reports, _ = _drive_modal(addon, job, ["ESC", "TIMER"])
+    assert state == {"CANCELLED"} and job.cancelled and job.model is None
+    assert reports and reports[-1][0] == {"WARNING"} and "cancelled" in reports[-1][1]
+    assert bu.scene_state() == before and "Indoor Model.json" not in bpy.data.texts
+    assert not scene.indoor.running
+    # a full run: progress rises to 1 and the objects are built on the main thread at the end
+    job = ops.ReconstructJob(bridge.object_to_cloud(obj), "manhattan", 0).start()
+    state, reports, seen = _drive_modal(addon, job, ["TIMER"])
+    assert state == {"FINISHED"} and job.error is None, reports
+    assert all(b >= a for a, b in zip(seen, seen[1:])) and seen[-1] == pytest.approx(1.0)
+    model = bridge.stored_model()
+    assert [s.id for s in model.shapes] == [s.id for s in job.model.shapes]
+    assert len(_objects("Spaces", scene)) == len(model.spaces) >= 2
+    assert not scene.indoor.running and reports[-1][0] == {"INFO"}
+
+
+# --------------------------------------------------------------------------- panels
+class _FakeLayout:
+    """Records what a panel draws (labels, operators, properties); any layout call works."""
+
+    def __init__(self, log):
+        self._log = log
+
+    def __getattr__(self, name):
+        def call(*args, **kw):
+            self._log.append((name, args, kw))
+            return _FakeLayout(self._log)
+        return call
+
+    def __setattr__(self, key, value):
+        object.__setattr__(self, key, value)
+
+
+def test_panels_only_read_cached_data(addon, office, monkeypatch):
+    scene = bu.fresh_scene()
+    bridge = addon.bridge
+    bridge.model_to_objects(office.truth, scene=scene)
+    model = bridge.stored_model()
+    r1, r5 = (next(s for s in model.spaces if s.name == n) for n in ("Room 1", "Room 5"))
+    assert bpy.ops.indoor.shortest_path(start=r1.id, end=r5.id) == {"FINISHED"}
+    bpy.ops.indoor.show_graph(kind="connectivity")
+    scene.indoor.change_summary = json.dumps({"scan": "s", "points": 10, "existing": 7, "new": 3, "new_share": 0.3,
+                                              "distance_threshold_m": 0.05, "surfaces": 4, "redundant": ["a"],
+                                              "new_elements": 1, "new_walls": 1})
+    scene.indoor.eval_summary = json.dumps({"buffer_m": 0.05, "completeness": 0.8, "correctness": 0.9,
+                                            "accuracy_m": 0.01, "missing": ["x"], "redundant": []})
+    _select(_by_shape(r1.id))
+
+    def forbidden(*a, **k):
+        raise AssertionError("a panel computed something")
+
+    engine = bu.engine_module()
+    for mod, names in (("topology", ("shortest_path", "space_graph", "reclassify", "insert_door")),
+                       ("change", ("detect_changes",)), ("evaluation", ("evaluate", "load_model")),
+                       ("reconstruct", ("reconstruct",))):
+        m = bu.engine_module(mod)
+        for n in names:
+            monkeypatch.setattr(m, n, forbidden)
+    monkeypatch.setattr(bridge, "stored_model", forbidden)
+    monkeypatch.setattr(engine.model.BuildingModel, "from_json", forbidden)
+    drawn = {}
+    for cls in addon.panels.CLASSES:
+        log = []
+        fake = type("P", (), {"layout": _FakeLayout(log)})()
+        cls.draw(fake, bpy.context)
+        drawn[cls.bl_label] = [a[0] for name, a, kw in log if name == "label" and a] + \
+            [kw.get("text", "") for name, a, kw in log if name in ("label", "progress")]
+    topo = " ".join(drawn["Topology"])
+    assert "Room 1" in topo and "Room 5" in topo and "m centre to centre" in topo
+    assert any("3 new of 10" in t for t in drawn["Changes"])
+    assert any("grey: existing" in t for t in drawn["Changes"])
+    assert any("Completeness 80.0%" in t for t in drawn["Evaluate"])
+    assert any("Room 1" in t for t in drawn["Review and fix"])
