@@ -22,7 +22,7 @@ log = logging.getLogger(__name__)
 __all__ = ["INDOOR_OT_import_scan", "INDOOR_OT_reconstruct", "INDOOR_OT_cancel_reconstruct", "ReconstructJob",
            "INDOOR_OT_reclassify", "INDOOR_OT_insert_door", "INDOOR_OT_revert_edit", "INDOOR_OT_show_graph",
            "INDOOR_OT_shortest_path", "INDOOR_OT_detect_changes", "INDOOR_OT_evaluate", "INDOOR_OT_export_ifc",
-           "SCAN_EXTENSIONS", "CLASSES", "menu_import", "menu_export"]
+           "SCAN_EXTENSIONS", "CLASSES", "menu_import", "menu_export", "bonsai_available"]
 
 SCAN_EXTENSIONS = (".ply", ".pcd", ".e57", ".las", ".laz", ".pts", ".xyz", ".txt", ".csv")
 """File extensions the Import scan file browser shows (the engine decides what it reads)."""
@@ -672,6 +672,9 @@ class INDOOR_OT_export_ifc(bpy.types.Operator, ExportHelper):
     filter_glob: StringProperty(default="*.ifc", options={"HIDDEN"})
     schema: EnumProperty(name="Schema", items=(("IFC4", "IFC4", ""), ("IFC2X3", "IFC2X3", "")),
                          default="IFC4")
+    open_in_bonsai: BoolProperty(name="Open in Bonsai", default=False,
+                                 description="Open the written file with the Bonsai (BlenderBIM) add-on "
+                                             "when it is installed and enabled")
 
     @classmethod
     def poll(cls, context):
@@ -689,8 +692,24 @@ class INDOOR_OT_export_ifc(bpy.types.Operator, ExportHelper):
         except IndoorError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
+        if self.open_in_bonsai:
+            if not bonsai_available():
+                self.report({"WARNING"}, f"Wrote {path}; Bonsai is not installed or not enabled, so it was not opened")
+                return {"FINISHED"}
+            try:
+                bpy.ops.bim.load_project(filepath=str(path))
+            except RuntimeError as e:  # Bonsai's own error: the IFC file is written anyway
+                self.report({"WARNING"}, f"Wrote {path}; Bonsai could not open it: {e}")
+                return {"FINISHED"}
+            self.report({"INFO"}, f"Wrote {path} and opened it in Bonsai")
+            return {"FINISHED"}
         self.report({"INFO"}, f"Wrote {path}")
         return {"FINISHED"}
+
+
+def bonsai_available() -> bool:
+    """True when Bonsai's "Load Project" operator (``bim.load_project``) is registered."""
+    return hasattr(bpy.types, "BIM_OT_load_project")
 
 
 def menu_import(self, context):

@@ -426,3 +426,34 @@ def test_panels_only_read_cached_data(addon, office, monkeypatch):
     assert any("grey: existing" in t for t in drawn["Changes"])
     assert any("Completeness 80.0%" in t for t in drawn["Evaluate"])
     assert any("Room 1" in t for t in drawn["Review and fix"])
+
+
+# --------------------------------------------------------------------------- Export
+def test_export_opens_in_bonsai_only_when_installed(addon, office, tmp_path):
+    scene = bu.fresh_scene()
+    addon.bridge.model_to_objects(office.truth, scene=scene)
+    path = tmp_path / "m.ifc"
+    assert not addon.operators.bonsai_available()
+    assert bpy.ops.indoor.export_ifc(filepath=str(path), open_in_bonsai=True) == {"FINISHED"}
+    import ifcopenshell
+
+    f = ifcopenshell.open(str(path))
+    assert len(f.by_type("IfcSpace")) >= len(office.truth.spaces)
+    opened = []
+
+    class BIM_OT_load_project(bpy.types.Operator):  # stands in for Bonsai's operator
+        bl_idname = "bim.load_project"
+        bl_label = "Load Project"
+        filepath: bpy.props.StringProperty()
+
+        def execute(self, context):
+            opened.append(self.filepath)
+            return {"FINISHED"}
+
+    bpy.utils.register_class(BIM_OT_load_project)
+    try:
+        assert addon.operators.bonsai_available()
+        assert bpy.ops.indoor.export_ifc(filepath=str(tmp_path / "n.ifc"), open_in_bonsai=True) == {"FINISHED"}
+    finally:
+        bpy.utils.unregister_class(BIM_OT_load_project)
+    assert opened == [str(tmp_path / "n.ifc")]
