@@ -145,6 +145,14 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
 
     method: EnumProperty(name="Method", items=METHOD_ITEMS, default="auto")
     seed: IntProperty(name="Seed", default=0, min=0, description="Same seed, same model")
+    use_custom_params: BoolProperty(name="Set parameters", default=False,
+                                    description="Override the key parameters below")
+    min_wall_area: FloatProperty(name="Min wall area", default=1.5, min=0.0, unit="AREA")
+    max_wall_thickness: FloatProperty(name="Max wall thickness", default=0.5, min=0.05, subtype="DISTANCE",
+                                      unit="LENGTH")
+    working_voxel: FloatProperty(name="Working voxel", default=0.02, min=0.005, subtype="DISTANCE", unit="LENGTH")
+
+    _PARAM_KEYS = ("use_custom_params", "min_wall_area", "max_wall_thickness", "working_voxel")
 
     @classmethod
     def poll(cls, context):
@@ -160,6 +168,9 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
                 self.method = settings.method
             if not self.properties.is_property_set("seed"):
                 self.seed = settings.reconstruct_seed
+            for key in self._PARAM_KEYS:
+                if not self.properties.is_property_set(key):
+                    setattr(self, key, getattr(settings, key))
         if bpy.app.background or context.window is None:
             return self.execute(context)
         if ReconstructJob.current is not None and ReconstructJob.current.running:
@@ -172,7 +183,7 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
             self.report({"ERROR"}, f"{obj.name}: {e}")
             return {"CANCELLED"}
         self._object_name = obj.name
-        self._job = ReconstructJob(cloud, self.method, self.seed)
+        self._job = ReconstructJob(cloud, self.method, self.seed, params=self._overrides())
         self._job.start()
         wm = context.window_manager
         wm.progress_begin(0, 1000)
@@ -220,6 +231,12 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
         self.report({"INFO"}, _summary(self._object_name, job.model, self.method, by_coll, job.seconds))
         return {"FINISHED"}
 
+    def _overrides(self):
+        if not self.use_custom_params:
+            return None
+        return {"min_wall_area": self.min_wall_area, "max_wall_thickness": self.max_wall_thickness,
+                "working_voxel": self.working_voxel}
+
     def execute(self, context):
         from ..engine.reconstruct import reconstruct  # the engine is imported on first use
 
@@ -229,7 +246,8 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
         t0 = time.perf_counter()
         try:
             cloud = bridge.object_to_cloud(obj)
-            model = reconstruct(cloud, self.method, rng=self.seed, progress=_progress_callback(context))
+            method, params = engine_params(cloud, self.method, self.seed, self._overrides())
+            model = reconstruct(cloud, method, params=params, rng=self.seed, progress=_progress_callback(context))
             by_coll = bridge.model_to_objects(model, scene=context.scene)
         except IndoorError as e:
             self.report({"ERROR"}, f"{obj.name}: {e}")
@@ -239,6 +257,27 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
         bridge.refresh_overlays(model, scene=context.scene)
         self.report({"INFO"}, _summary(obj.name, model, self.method, by_coll, time.perf_counter() - t0))
         return {"FINISHED"}
+
+
+def engine_params(cloud, method: str, seed: int, overrides):
+    """``(method, params)`` for ``engine.reconstruct.reconstruct``: ``params`` is None without
+    overrides; else the method's parameter dataclass with the overridden fields that it has
+    (``min_wall_area`` m², ``max_wall_thickness`` m, ``working_voxel`` m). With overrides,
+    "auto" is resolved first (``engine.reconstruct.choose_method``), as the parameters
+    depend on the method."""
+    import dataclasses
+
+    if not overrides:
+        return method, None
+    from ..engine.grammar.generic import GenericParams
+    from ..engine.grammar.params import ManhattanParams
+    from ..engine.reconstruct import choose_method
+
+    if method == "auto":
+        method, _ = choose_method(cloud, rng=seed)
+    cls = ManhattanParams if method == "manhattan" else GenericParams
+    names = {f.name for f in dataclasses.fields(cls)}
+    return method, cls(**{k: float(v) for k, v in overrides.items() if k in names})
 
 
 def _summary(name, model, method, by_coll, seconds) -> str:
@@ -255,7 +294,8 @@ class ReconstructJob:
 
     The thread only runs the engine (numpy, no Blender data); the caller polls
     :attr:`running`, :attr:`fraction` and :attr:`message` and builds the objects from
-    :attr:`model` on the main thread. :meth:`cancel` makes the engine's ``should_stop``
+    :attr:`model` on the main thread. ``params`` are the overrides of :func:`engine_params`
+    (a dict or None). :meth:`cancel` makes the engine's ``should_stop``
     return True: the engine raises ``Cancelled`` at its next check and :attr:`cancelled`
     becomes True.
     """
@@ -283,7 +323,8 @@ class ReconstructJob:
 
         t0 = time.perf_counter()
         try:
-            self.model = reconstruct(self.cloud, self.method, params=self.params, rng=self.seed,
+            method, params = engine_params(self.cloud, self.method, self.seed, self.params)
+            self.model = reconstruct(self.cloud, method, params=params, rng=self.seed,
                                      progress=self._progress, should_stop=self._stop.is_set)
         except Cancelled:
             self.cancelled = True

@@ -77,6 +77,14 @@ class INDOOR_PT_reconstruct(_IndoorPanel, bpy.types.Panel):
         if settings is not None:
             layout.prop(settings, "method")
             layout.prop(settings, "reconstruct_seed")
+            layout.prop(settings, "use_custom_params")
+            if settings.use_custom_params:
+                col = layout.column(align=True)
+                col.prop(settings, "min_wall_area")
+                if settings.method != "generic":
+                    col.prop(settings, "max_wall_thickness")
+                if settings.method != "manhattan":
+                    col.prop(settings, "working_voxel")
         if settings is not None and settings.running:
             row = layout.row(align=True)
             if hasattr(row, "progress"):  # 4.0+
@@ -90,6 +98,8 @@ class INDOOR_PT_reconstruct(_IndoorPanel, bpy.types.Panel):
             if settings is not None:
                 op.method = settings.method
                 op.seed = settings.reconstruct_seed
+                for key in ("use_custom_params", "min_wall_area", "max_wall_thickness", "working_voxel"):
+                    setattr(op, key, getattr(settings, key))
         if not bridge.is_point_mesh(context.active_object):
             layout.label(text="Select an imported scan", icon="INFO")
         top = context.scene.collection.children.get(bridge.MODEL_COLLECTION)

@@ -65,6 +65,18 @@ class INDOOR_PG_settings(bpy.types.PropertyGroup):
                          description="Reconstruction method")
     reconstruct_seed: IntProperty(name="Seed", default=0, min=0,
                                   description="Seed of the reconstruction (same seed, same model)")
+    use_custom_params: BoolProperty(name="Set parameters", default=False,
+                                    description="Override key parameters (else the engine's defaults, "
+                                                "data-dependent ones chosen from the scan)")
+    min_wall_area: FloatProperty(name="Min wall area", default=1.5, min=0.0, soft_max=10.0, unit="AREA",
+                                 description="Smallest wall (m²) kept (Manhattan: wall hypotheses; "
+                                             "generic: wall planes)")
+    max_wall_thickness: FloatProperty(name="Max wall thickness", default=0.5, min=0.05, soft_max=1.0,
+                                      subtype="DISTANCE", unit="LENGTH",
+                                      description="Thickest wall the Manhattan grammar pairs into one wall (m)")
+    working_voxel: FloatProperty(name="Working voxel", default=0.02, min=0.005, soft_max=0.1,
+                                 subtype="DISTANCE", unit="LENGTH",
+                                 description="Voxel of the generic method's working cloud (m)")
 
     # Review and fix
     edit_type: EnumProperty(name="New type", items=EDIT_TYPE_ITEMS, default="interior",

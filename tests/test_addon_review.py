@@ -457,3 +457,29 @@ def test_export_opens_in_bonsai_only_when_installed(addon, office, tmp_path):
     finally:
         bpy.utils.unregister_class(BIM_OT_load_project)
     assert opened == [str(tmp_path / "n.ifc")]
+
+
+def test_reconstruct_passes_key_parameters(addon, office, monkeypatch):
+    scene = bu.fresh_scene()
+    obj = addon.bridge.point_cloud_to_object(office.cloud, name="office")
+    _select(obj)
+    rec = bu.engine_module("reconstruct")
+    seen = []
+
+    def fake(cloud, method, *, params=None, rng=0, progress=None, should_stop=None):
+        seen.append((method, params, rng))
+        return office.truth
+
+    monkeypatch.setattr(rec, "reconstruct", fake)
+    assert bpy.ops.indoor.reconstruct(method="manhattan", seed=3) == {"FINISHED"}
+    assert seen[-1] == ("manhattan", None, 3)  # defaults: the engine chooses from the data
+    assert bpy.ops.indoor.reconstruct(method="manhattan", use_custom_params=True, min_wall_area=2.5,
+                                      max_wall_thickness=0.35) == {"FINISHED"}
+    method, params, _ = seen[-1]
+    assert method == "manhattan" and type(params).__name__ == "ManhattanParams"
+    assert params.min_wall_area == pytest.approx(2.5) and params.max_wall_thickness == pytest.approx(0.35)
+    assert params.bin_size is None  # data-dependent fields still chosen from the scan
+    assert bpy.ops.indoor.reconstruct(method="generic", use_custom_params=True, working_voxel=0.04) == {"FINISHED"}
+    method, params, _ = seen[-1]
+    assert type(params).__name__ == "GenericParams" and params.working_voxel == pytest.approx(0.04)
+    assert len(_objects("Spaces", scene)) == len(office.truth.spaces)
