@@ -269,7 +269,7 @@ def test_detect_changes_on_active_scan(addon, change_demo):
     assert summary["new"] == int(np.sum(expect.point_type == 1)) and summary["redundant"] == expect.redundant
 
 
-def test_detect_changes_bad_file_leaves_scene(addon, change_demo, tmp_path):
+def test_detect_changes_from_file_and_bad_file_leaves_scene(addon, change_demo, tmp_path):
     scene = bu.fresh_scene()
     addon.bridge.model_to_objects(change_demo.truth, scene=scene)
     bad = tmp_path / "broken.ply"
@@ -278,6 +278,37 @@ def test_detect_changes_bad_file_leaves_scene(addon, change_demo, tmp_path):
     with pytest.raises(RuntimeError, match="broken.ply"):
         bpy.ops.indoor.detect_changes(filepath=str(bad))
     assert bu.scene_state() == before and scene.indoor.change_summary == ""
+    # a scan file: imported as a point mesh that carries the change attributes
+    sub = change_demo.cloud.subset(np.arange(0, len(change_demo.cloud), 4))
+    good = tmp_path / "newer.ply"
+    bu.engine_module("io").write_ply(str(good), sub)
+    assert bpy.ops.indoor.detect_changes(filepath=str(good)) == {"FINISHED"}
+    obj = bpy.data.objects["newer"]
+    assert obj.users_collection[0].name == "Scan" and len(obj.data.vertices) == len(sub)
+    t = _attr(obj.data, "change_type")
+    assert json.loads(scene.indoor.change_summary)["new"] == int(t.sum()) > 0
+    is_new = sub.fields["new"].astype(bool)
+    assert np.mean(t[is_new] == 1) > 0.8 and np.mean(t[~is_new] == 0) > 0.9
+
+
+def test_blend_reopens_with_model_history_and_overlays(office_scene, addon, tmp_path):
+    model = addon.bridge.stored_model()
+    wall_id, a, b = _unconnected_neighbours(model)
+    _select(_by_shape(wall_id))
+    bpy.ops.indoor.insert_door(position_mode="VALUE", position=1.0)
+    bpy.ops.indoor.show_graph(kind="connectivity")
+    edited = addon.bridge.stored_model().to_json()
+    path = str(tmp_path / "edited.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bu.fresh_scene()
+    assert addon.bridge.stored_model() is None
+    bpy.ops.wm.open_mainfile(filepath=path)
+    assert addon.bridge.stored_model().to_json() == edited
+    assert len(_objects("Doors")) == len(model.doors) + 1
+    assert len(bpy.data.objects["Connectivity graph"].data.splines) == len(_edges(model, "connectivity")) + 1
+    assert bpy.ops.indoor.revert_edit() == {"FINISHED"}  # the history survives the save
+    assert addon.bridge.stored_model().to_json() == model.to_json()
+    assert len(bpy.data.objects["Connectivity graph"].data.splines) == len(_edges(model, "connectivity"))
 
 
 # --------------------------------------------------------------------------- Evaluate
