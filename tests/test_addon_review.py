@@ -312,6 +312,22 @@ def test_blend_reopens_with_model_history_and_overlays(office_scene, addon, tmp_
 
 
 # --------------------------------------------------------------------------- Evaluate
+def test_evaluate_extra_room_flags_redundant_sources(addon, tmp_path):
+    demo = bu.engine_module("synthetic").preset("eval_demo", seed=0, target_points=5_000)
+    scene = bu.fresh_scene()
+    addon.bridge.model_to_objects(demo.variants["incorr"], scene=scene)  # a room that is not there
+    ref = tmp_path / "truth.json"
+    ref.write_text(demo.truth.to_json())
+    assert bpy.ops.indoor.evaluate(filepath=str(ref)) == {"FINISHED"}
+    expect = bu.engine_module("evaluation").evaluate(demo.variants["incorr"], demo.truth)
+    summary = json.loads(scene.indoor.eval_summary)
+    assert summary["redundant"] == expect.redundant and len(expect.redundant) >= 1
+    assert summary["correctness"] < 0.95
+    src = [o for o in scene.collection.children["Evaluation"].objects if o.name.startswith("Source ")]
+    assert len(src) == len(expect.source)
+    assert {o["indoor_patch"] for o in src if o["indoor_flagged"]} == set(expect.redundant)
+
+
 def test_evaluate_against_reference_file(addon, tmp_path):
     demo = bu.engine_module("synthetic").preset("eval_demo", seed=0, target_points=5_000)
     scene = bu.fresh_scene()
