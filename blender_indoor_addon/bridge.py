@@ -903,7 +903,8 @@ def path_to_curve(model, path, *, scene=None):
             c = via.centroid.copy()
             c[2] = pts[-1][2]
             pts.append(c)
-    obj = polylines_to_curve(PATH_OBJECT, [np.array(pts)], kind="path", matrix=model_matrix(model), scene=scene)
+    obj = polylines_to_curve(PATH_OBJECT, [np.array(pts)], kind="path", matrix=model_matrix(model),
+                             scene=scene)
     obj["indoor_spaces"] = list(path.spaces)
     obj["indoor_length"] = float(path.length)
     return obj

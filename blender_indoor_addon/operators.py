@@ -10,7 +10,8 @@ import os
 import time
 
 import bpy
-from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
+                       StringProperty)
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..engine.errors import IndoorError
@@ -21,7 +22,8 @@ log = logging.getLogger(__name__)
 
 __all__ = ["INDOOR_OT_import_scan", "INDOOR_OT_reconstruct", "INDOOR_OT_cancel_reconstruct", "ReconstructJob",
            "INDOOR_OT_reclassify", "INDOOR_OT_insert_door", "INDOOR_OT_revert_edit", "INDOOR_OT_show_graph",
-           "INDOOR_OT_shortest_path", "INDOOR_OT_detect_changes", "INDOOR_OT_evaluate", "INDOOR_OT_export_ifc",
+           "INDOOR_OT_shortest_path", "INDOOR_OT_detect_changes", "INDOOR_OT_evaluate",
+           "INDOOR_OT_export_ifc",
            "SCAN_EXTENSIONS", "CLASSES", "menu_import", "menu_export", "bonsai_available"]
 
 SCAN_EXTENSIONS = (".ply", ".pcd", ".e57", ".las", ".laz", ".pts", ".xyz", ".txt", ".csv")
@@ -150,7 +152,8 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
     min_wall_area: FloatProperty(name="Min wall area", default=1.5, min=0.0, unit="AREA")
     max_wall_thickness: FloatProperty(name="Max wall thickness", default=0.5, min=0.05, subtype="DISTANCE",
                                       unit="LENGTH")
-    working_voxel: FloatProperty(name="Working voxel", default=0.02, min=0.005, subtype="DISTANCE", unit="LENGTH")
+    working_voxel: FloatProperty(name="Working voxel", default=0.02, min=0.005, subtype="DISTANCE",
+                                 unit="LENGTH")
 
     _PARAM_KEYS = ("use_custom_params", "min_wall_area", "max_wall_thickness", "working_voxel")
 
@@ -217,7 +220,8 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
             return {"RUNNING_MODAL"}
         self._finish(context)
         if job.cancelled:
-            self.report({"WARNING"}, f"Reconstruction of {self._object_name} cancelled; the scene is unchanged")
+            self.report({"WARNING"},
+                        f"Reconstruction of {self._object_name} cancelled; the scene is unchanged")
             return {"CANCELLED"}
         if job.error is not None:
             self.report({"ERROR"}, f"{self._object_name}: {job.error}")
@@ -247,7 +251,8 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
         try:
             cloud = bridge.object_to_cloud(obj)
             method, params = engine_params(cloud, self.method, self.seed, self._overrides())
-            model = reconstruct(cloud, method, params=params, rng=self.seed, progress=_progress_callback(context))
+            model = reconstruct(cloud, method, params=params, rng=self.seed,
+                                progress=_progress_callback(context))
             by_coll = bridge.model_to_objects(model, scene=context.scene)
         except IndoorError as e:
             self.report({"ERROR"}, f"{obj.name}: {e}")
@@ -503,7 +508,8 @@ class INDOOR_OT_revert_edit(bpy.types.Operator):
             self.report({"ERROR"}, "no earlier model to go back to")
             return {"CANCELLED"}
         bridge.refresh_overlays(model, scene=context.scene)
-        self.report({"INFO"}, f"Restored the previous model ({len(model.spaces)} spaces, {len(model.doors)} doors)")
+        self.report({"INFO"}, f"Restored the previous model ({len(model.spaces)} spaces, "
+                              f"{len(model.doors)} doors)")
         return {"FINISHED"}
 
 
@@ -556,7 +562,8 @@ class INDOOR_OT_shortest_path(bpy.types.Operator):
     def _ends(self, context):
         if self.start and self.end:
             return self.start, self.end
-        spaces = [o for o in context.selected_objects if o.get("indoor_type") == "interior" and bridge.SHAPE_PROP in o]
+        spaces = [o for o in context.selected_objects
+                  if o.get("indoor_type") == "interior" and bridge.SHAPE_PROP in o]
         if len(spaces) != 2:
             return None
         active = context.active_object
@@ -735,7 +742,8 @@ class INDOOR_OT_export_ifc(bpy.types.Operator, ExportHelper):
             return {"CANCELLED"}
         if self.open_in_bonsai:
             if not bonsai_available():
-                self.report({"WARNING"}, f"Wrote {path}; Bonsai is not installed or not enabled, so it was not opened")
+                self.report({"WARNING"},
+                            f"Wrote {path}; Bonsai is not installed or not enabled, so it was not opened")
                 return {"FINISHED"}
             try:
                 bpy.ops.bim.load_project(filepath=str(path))

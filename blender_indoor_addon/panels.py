@@ -247,7 +247,8 @@ class INDOOR_PT_export(_IndoorPanel, bpy.types.Panel):
         layout = self.layout
         layout.operator("indoor.export_ifc", icon="EXPORT")
         if operators.bonsai_available():
-            layout.operator("indoor.export_ifc", text="Export and open in Bonsai", icon="FILE_BLEND").open_in_bonsai = True
+            op = layout.operator("indoor.export_ifc", text="Export and open in Bonsai", icon="FILE_BLEND")
+            op.open_in_bonsai = True
         if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
             layout.label(text="Reconstruct a scan first", icon="INFO")
 

@@ -73,7 +73,8 @@ class INDOOR_PG_settings(bpy.types.PropertyGroup):
                                              "generic: wall planes)")
     max_wall_thickness: FloatProperty(name="Max wall thickness", default=0.5, min=0.05, soft_max=1.0,
                                       subtype="DISTANCE", unit="LENGTH",
-                                      description="Thickest wall the Manhattan grammar pairs into one wall (m)")
+                                      description="Thickest wall the Manhattan grammar pairs into one "
+                                                  "wall (m)")
     working_voxel: FloatProperty(name="Working voxel", default=0.02, min=0.005, soft_max=0.1,
                                  subtype="DISTANCE", unit="LENGTH",
                                  description="Voxel of the generic method's working cloud (m)")

@@ -7,9 +7,9 @@ For each scan: ``engine.reconstruct.convert_file`` writes ``DIR/<name>.ifc`` and
 ``DIR/<name>.json``; the add-on's Import scan operator builds the point mesh on a fresh
 scene, the bridge adds the model (collections Spaces, Walls, ..., hidden Cells), saved as
 ``DIR/<name>.blend``; then a preview ``DIR/<name>.png`` is rendered (Workbench by default,
-headless; the demo's render: a top view cut below the ceiling and an oblique view). A bad file is reported on one line and the batch goes
-on; ``DIR/batch.json`` lists what succeeded and what failed. Exit code 0 only when every
-scan succeeded.
+headless; the demo's render: a top view cut below the ceiling and an oblique view). A bad
+file is reported on one line and the batch goes on; ``DIR/batch.json`` lists what succeeded
+and what failed. Exit code 0 only when every scan succeeded.
 """
 from __future__ import annotations
 

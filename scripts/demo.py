@@ -398,11 +398,13 @@ def stage_changes(state):
 STAGES = [("setup", stage_setup), ("import", stage_import), ("reconstruct", stage_reconstruct),
           ("ifc", stage_ifc), ("render", stage_render), ("save_blend", stage_save_blend)]
 """(name, function) in order; each returns a JSON-ready dict stored under its name."""
-SYNTHETIC_STAGES = [("setup", stage_setup), ("synthetic_scan", stage_synthetic_scan), ("import", stage_import),
+SYNTHETIC_STAGES = [("setup", stage_setup), ("synthetic_scan", stage_synthetic_scan),
+                    ("import", stage_import),
                     ("reconstruct", stage_reconstruct), ("ifc", stage_ifc), ("render", stage_render),
                     ("save_blend", stage_save_blend)]
 """The same on a synthetic scan generated on the fly (into OUT/<preset>/)."""
-CHANGE_STAGES = [("setup", stage_setup), ("synthetic_scan", stage_synthetic_scan), ("old_model", stage_old_model),
+CHANGE_STAGES = [("setup", stage_setup), ("synthetic_scan", stage_synthetic_scan),
+                 ("old_model", stage_old_model),
                  ("import", stage_import), ("changes", stage_changes), ("render", stage_render),
                  ("save_blend", stage_save_blend)]
 """Change detection on change_demo (into OUT/changes/): old model vs. newer scan."""

@@ -123,7 +123,8 @@ def test_insert_door_at_cursor_connects_rooms_and_undo_restores(office_scene, ad
     wall = _by_shape(wall_id)
     n_doors = len(_objects("Doors"))
     # the 3D cursor at the wall's centre (scene frame = model.transform applied)
-    centre = np.asarray(model.transform)[:3, :3] @ model[wall_id].centroid + np.asarray(model.transform)[:3, 3]
+    t = np.asarray(model.transform)
+    centre = t[:3, :3] @ model[wall_id].centroid + t[:3, 3]
     bpy.context.scene.cursor.location = centre
     _select(wall)
     bpy.ops.ed.undo_push(message="before door")
@@ -159,7 +160,8 @@ def test_insert_door_by_value_and_failure_leaves_scene(office_scene, addon):
     with pytest.raises(RuntimeError, match="does not fit"):
         bpy.ops.indoor.insert_door(width=0.9, height=5.0, position_mode="VALUE", position=1.5)
     assert bu.scene_state() == before and addon.bridge.stored_model().to_json() == text
-    assert bpy.ops.indoor.insert_door(width=0.8, height=2.0, position_mode="VALUE", position=1.5) == {"FINISHED"}
+    res = bpy.ops.indoor.insert_door(width=0.8, height=2.0, position_mode="VALUE", position=1.5)
+    assert res == {"FINISHED"}
     door = next(d for d in addon.bridge.stored_model().doors if d.id not in model)
     assert door.attributes["position"] == pytest.approx(1.5)
 
@@ -441,7 +443,8 @@ def test_panels_only_read_cached_data(addon, office, monkeypatch):
     r1, r5 = (next(s for s in model.spaces if s.name == n) for n in ("Room 1", "Room 5"))
     assert bpy.ops.indoor.shortest_path(start=r1.id, end=r5.id) == {"FINISHED"}
     bpy.ops.indoor.show_graph(kind="connectivity")
-    scene.indoor.change_summary = json.dumps({"scan": "s", "points": 10, "existing": 7, "new": 3, "new_share": 0.3,
+    scene.indoor.change_summary = json.dumps({"scan": "s", "points": 10, "existing": 7, "new": 3,
+                                              "new_share": 0.3,
                                               "distance_threshold_m": 0.05, "surfaces": 4, "redundant": ["a"],
                                               "new_elements": 1, "new_walls": 1})
     scene.indoor.eval_summary = json.dumps({"buffer_m": 0.05, "completeness": 0.8, "correctness": 0.9,
@@ -500,7 +503,8 @@ def test_export_opens_in_bonsai_only_when_installed(addon, office, tmp_path):
     bpy.utils.register_class(BIM_OT_load_project)
     try:
         assert addon.operators.bonsai_available()
-        assert bpy.ops.indoor.export_ifc(filepath=str(tmp_path / "n.ifc"), open_in_bonsai=True) == {"FINISHED"}
+        res = bpy.ops.indoor.export_ifc(filepath=str(tmp_path / "n.ifc"), open_in_bonsai=True)
+        assert res == {"FINISHED"}
     finally:
         bpy.utils.unregister_class(BIM_OT_load_project)
     assert opened == [str(tmp_path / "n.ifc")]
@@ -526,7 +530,8 @@ def test_reconstruct_passes_key_parameters(addon, office, monkeypatch):
     assert method == "manhattan" and type(params).__name__ == "ManhattanParams"
     assert params.min_wall_area == pytest.approx(2.5) and params.max_wall_thickness == pytest.approx(0.35)
     assert params.bin_size is None  # data-dependent fields still chosen from the scan
-    assert bpy.ops.indoor.reconstruct(method="generic", use_custom_params=True, working_voxel=0.04) == {"FINISHED"}
+    res = bpy.ops.indoor.reconstruct(method="generic", use_custom_params=True, working_voxel=0.04)
+    assert res == {"FINISHED"}
     method, params, _ = seen[-1]
     assert type(params).__name__ == "GenericParams" and params.working_voxel == pytest.approx(0.04)
     assert len(_objects("Spaces", scene)) == len(office.truth.spaces)

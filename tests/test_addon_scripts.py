@@ -22,7 +22,8 @@ def _run(script, args, timeout=300):
 def test_demo_writes_blend_summary_and_preview(tmp_path):
     out = tmp_path / "demo"
     proc = _run(os.path.join(ROOT, "scripts", "demo.py"),
-                ["--out", str(out), "--resolution", "80", "--engine", "workbench", "--synthetic-points", "40000"])
+                ["--out", str(out), "--resolution", "80", "--engine", "workbench",
+                 "--synthetic-points", "40000"])
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert sorted(os.listdir(out)) == ["changes", "model.ifc", "office_mw", "preview.png", "scan.blend",
                                        "summary.json"]
@@ -31,7 +32,8 @@ def test_demo_writes_blend_summary_and_preview(tmp_path):
     assert sorted(os.listdir(out / "changes")) == ["preview.png", "scan.blend", "scan.ply", "summary.json"]
     office = json.loads((out / "office_mw" / "summary.json").read_text())["stages"]
     assert office["synthetic_scan"]["truth"]["spaces"] == 8  # 7 rooms and the corridor
-    assert office["reconstruct"]["collections"]["Spaces"] == office["reconstruct"]["report"]["summary"]["spaces"]
+    rec = office["reconstruct"]
+    assert rec["collections"]["Spaces"] == rec["report"]["summary"]["spaces"]
     assert office["reconstruct"]["collections"]["Spaces"] >= 6
     changes = json.loads((out / "changes" / "summary.json").read_text())["stages"]["changes"]
     assert changes["true_new_found"] > 0.8 and changes["true_existing_kept"] > 0.9
@@ -58,7 +60,8 @@ def test_batch_reports_a_bad_file_and_exits_non_zero(tmp_path):
     bad.write_bytes(b"not a ply at all")
     good = os.path.join(ROOT, "tests", "data", "room_scan2.pcd")
     out = tmp_path / "out"
-    proc = _run(os.path.join(ROOT, "scripts", "batch.py"), [str(bad), good, "--out", str(out), "--resolution", "60"])
+    proc = _run(os.path.join(ROOT, "scripts", "batch.py"),
+                [str(bad), good, "--out", str(out), "--resolution", "60"])
     assert proc.returncode == 1, proc.stderr[-3000:]
     report = json.loads((out / "batch.json").read_text())
     assert [d["scan"] for d in report["done"]] == [good]  # the batch went on past the bad file
