@@ -353,6 +353,19 @@ def stage_synthetic_scan(state):
             "truth": {"spaces": len(truth.spaces), "walls": len(truth.walls), "doors": len(truth.doors)}}
 
 
+def stage_evaluate(state):
+    """The add-on's Evaluate operator: the reconstructed model against the preset's true model
+    (written as ``truth.json``); the curves and surfaces go to ``evaluation/``."""
+    import bpy
+
+    path = os.path.join(state["out"], "truth.json")
+    state["package"].engine.fileutil.atomic_write_text(path, state["truth"].to_json())
+    result = bpy.ops.indoor.evaluate(filepath=path, out_dir=os.path.join(state["out"], "evaluation"))
+    if result != {"FINISHED"}:
+        raise SystemExit(f"demo: evaluation failed ({result}); see the log above")
+    return json.loads(bpy.context.scene.indoor.eval_summary)
+
+
 def stage_old_model(state):
     """change_demo: the old building's model (the preset's truth) put in the scene by the bridge."""
     import bpy
@@ -401,8 +414,9 @@ STAGES = [("setup", stage_setup), ("import", stage_import), ("reconstruct", stag
 SYNTHETIC_STAGES = [("setup", stage_setup), ("synthetic_scan", stage_synthetic_scan),
                     ("import", stage_import),
                     ("reconstruct", stage_reconstruct), ("ifc", stage_ifc), ("render", stage_render),
-                    ("save_blend", stage_save_blend)]
-"""The same on a synthetic scan generated on the fly (into OUT/<preset>/)."""
+                    ("evaluate", stage_evaluate), ("save_blend", stage_save_blend)]
+"""The same on a synthetic scan generated on the fly (into OUT/<preset>/), evaluated against the
+preset's true model."""
 CHANGE_STAGES = [("setup", stage_setup), ("synthetic_scan", stage_synthetic_scan),
                  ("old_model", stage_old_model),
                  ("import", stage_import), ("changes", stage_changes), ("render", stage_render),

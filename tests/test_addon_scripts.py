@@ -27,14 +27,17 @@ def test_demo_writes_blend_summary_and_preview(tmp_path):
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert sorted(os.listdir(out)) == ["changes", "model.ifc", "office_mw", "preview.png", "scan.blend",
                                        "summary.json"]
-    assert sorted(os.listdir(out / "office_mw")) == ["model.ifc", "preview.png", "scan.blend", "scan.ply",
-                                                     "summary.json"]
+    assert sorted(os.listdir(out / "office_mw")) == ["evaluation", "model.ifc", "preview.png", "scan.blend",
+                                                     "scan.ply", "summary.json", "truth.json"]
+    assert "curves.png" in os.listdir(out / "office_mw" / "evaluation")
     assert sorted(os.listdir(out / "changes")) == ["preview.png", "scan.blend", "scan.ply", "summary.json"]
     office = json.loads((out / "office_mw" / "summary.json").read_text())["stages"]
     assert office["synthetic_scan"]["truth"]["spaces"] == 8  # 7 rooms and the corridor
     rec = office["reconstruct"]
     assert rec["collections"]["Spaces"] == rec["report"]["summary"]["spaces"]
     assert office["reconstruct"]["collections"]["Spaces"] >= 6
+    ev = office["evaluate"]  # the reconstruction against the true model, at the localisation buffer
+    assert ev["completeness"] > 0.95 and ev["correctness"] > 0.95  # measured 0.999 / 0.999
     changes = json.loads((out / "changes" / "summary.json").read_text())["stages"]["changes"]
     assert changes["true_new_found"] > 0.8 and changes["true_existing_kept"] > 0.9
     assert changes["new"] > 0 and len(changes["redundant"]) >= 1
