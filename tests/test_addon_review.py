@@ -240,7 +240,9 @@ def test_detect_changes_on_active_scan(addon, change_demo):
     expect = change.detect_changes(change_demo.truth, bridge.object_to_cloud(scan))
     mesh = scan.data
     np.testing.assert_array_equal(_attr(mesh, "change_type"), expect.point_type)
-    np.testing.assert_array_equal(_attr(mesh, "change_distance"), expect.distance.astype(np.float32))
+    # the engine's distances, to float precision: two ICP runs (open3d, multithreaded) may
+    # differ in the last bits of a point or two
+    np.testing.assert_allclose(_attr(mesh, "change_distance"), expect.distance.astype(np.float32), rtol=0, atol=1e-6)
     assert mesh.attributes["change_type"].domain == "POINT"
     # the synthetic truth: points of new structure are mostly classified new, old ones existing
     is_new = change_demo.cloud.fields["new"].astype(bool)
