@@ -28,12 +28,13 @@ outside, ``b = -1``).
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 from typing import Optional, Sequence
 
 import numpy as np
 
-__all__ = ["adaptive_alpha", "cell_heights", "alpha_triangles", "alpha_area", "alpha_geometry", "thin_points", "Face", "CellSet",
+__all__ = ["adaptive_alpha", "local_alpha", "cell_heights", "alpha_triangles", "alpha_area", "alpha_geometry", "thin_points", "Face", "CellSet",
            "CellCoverage", "measure_coverage", "cellset_from_polygons"]
 
 log = logging.getLogger(__name__)
@@ -60,9 +61,29 @@ def thin_points(pts: np.ndarray, cell: float) -> np.ndarray:
     return pts[np.sort(first)]
 
 
-def _alpha_simplices(xy: np.ndarray, r_alpha: float) -> np.ndarray:
+def local_alpha(xy: np.ndarray, r_alpha: float, factor: float, r_max: float, k: int = 8) -> np.ndarray:
+    """Per-point circumradius bounds that follow the local point spacing, metres.
+
+    ``clip(factor × s_i, r_alpha, r_max)`` with ``s_i`` the median nearest-neighbour distance
+    over point i and its ``k`` nearest neighbours: where a scan samples a surface sparsely
+    (a room's edge far from a mobile path, a corridor's far end), a fixed r_α leaves most of
+    the surface uncovered; the median over a neighbourhood keeps a stray point far from the
+    others from getting a large bound. ``xy`` : (n, 2) float64 metres; returns (n,) float64.
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if len(xy) <= k or factor <= 0 or r_max <= r_alpha:
+        return np.full(len(xy), float(r_alpha))
+    from scipy.spatial import cKDTree
+
+    d, nn = cKDTree(xy).query(xy, k=k + 1)
+    s = np.median(d[:, 1][nn], axis=1)
+    return np.clip(factor * s, r_alpha, r_max)
+
+
+def _alpha_simplices(xy: np.ndarray, r_alpha) -> np.ndarray:
     """(m, 3) int64 vertex indices of the alpha-shape triangles of ``xy`` (see
-    :func:`alpha_triangles`)."""
+    :func:`alpha_triangles`); ``r_alpha`` is a float or an (n,) bound per point (a triangle
+    is kept under the smallest bound of its corners)."""
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(xy) < 3:
         return np.zeros((0, 3), dtype=np.int64)
@@ -80,7 +101,10 @@ def _alpha_simplices(xy: np.ndarray, r_alpha: float) -> np.ndarray:
                    - (t[:, 1, 1] - t[:, 0, 1]) * (t[:, 2, 0] - t[:, 0, 0]))
     with np.errstate(divide="ignore", invalid="ignore"):
         r = a * b * c / (2.0 * area2)
-    keep = np.isfinite(r) & (r < r_alpha)
+    bound = np.asarray(r_alpha, dtype=np.float64)
+    if bound.ndim:
+        bound = bound[tri.simplices].min(axis=1)
+    keep = np.isfinite(r) & (r < bound)
     return tri.simplices[keep].astype(np.int64)
 
 
@@ -98,25 +122,7 @@ def alpha_triangles(xy: np.ndarray, r_alpha: float) -> np.ndarray:
     points or collinear points.
     """
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    empty = np.zeros((0, 3, 2))
-    if len(xy) < 3:
-        return empty
-    from scipy.spatial import Delaunay, QhullError
-
-    try:
-        tri = Delaunay(xy)
-    except (QhullError, ValueError):
-        return empty
-    t = xy[tri.simplices]
-    a = np.linalg.norm(t[:, 1] - t[:, 2], axis=1)
-    b = np.linalg.norm(t[:, 0] - t[:, 2], axis=1)
-    c = np.linalg.norm(t[:, 0] - t[:, 1], axis=1)
-    area2 = np.abs((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1])
-                   - (t[:, 1, 1] - t[:, 0, 1]) * (t[:, 2, 0] - t[:, 0, 0]))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = a * b * c / (2.0 * area2)
-    keep = np.isfinite(r) & (r < r_alpha)
-    return t[keep]
+    return xy[_alpha_simplices(xy, r_alpha)].reshape(-1, 3, 2)
 
 
 def alpha_area(xy: np.ndarray, r_alpha: float, clip: Optional[tuple] = None) -> float:
@@ -149,7 +155,7 @@ def _tri_area(t: np.ndarray) -> np.ndarray:
 
 
 def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap: float = 0.0,
-                   tolerance: float = 1e-9):
+                   tolerance: float = 1e-9, local_factor: float = 0.0, r_max: float = 0.0):
     """The alpha shape of ``xy`` as one shapely (Multi)Polygon (union of its triangles).
 
     Parameters
@@ -165,6 +171,9 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
         blocker's room side: a triangle meeting the blocker may then have no corner on the
         other side (this stops triangles between the snapped points of the two faces of a
         wall).
+
+    local_factor, r_max : when ``r_max > r_alpha``, each point's bound is raised to
+        ``local_factor`` × the local spacing, at most ``r_max`` (:func:`local_alpha`).
 
     Returns
     -------
@@ -198,7 +207,8 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
             moves.append((idx[m], p + t[m, None] * u))
         for idx, proj in moves:
             xy[idx] = proj
-    simp = _alpha_simplices(xy, r_alpha)
+    bound = local_alpha(xy, r_alpha, local_factor, r_max) if r_max > r_alpha else r_alpha
+    simp = _alpha_simplices(xy, bound)
     if len(simp) == 0:
         return shapely.GeometryCollection()
     t = xy[simp]
@@ -284,6 +294,32 @@ class CellSet:
                 out[f.b].append((f.a, fi))
         return out
 
+    def union(self, cells) -> object:
+        """Union of the footprints of ``cells`` (indices), snap-rounded to a grid of
+        ``10 × _EDGE_TOL`` metres (the tolerance of the faces' outline test below): a vertex one cell kept and its neighbour dropped (merged
+        slivers, float noise) must not split the union into pieces; hairline holes (area ≤ ``_HAIRLINE``) are dropped.
+
+        Returns a shapely Polygon, or a MultiPolygon when the cells are not connected."""
+        import shapely
+
+        u = shapely.union_all([self.polygons[c] for c in cells], grid_size=10 * _EDGE_TOL)
+        parts = [shapely.Polygon(g.exterior, [r for r in g.interiors if shapely.Polygon(r).area > _HAIRLINE])
+                 for g in getattr(u, "geoms", [u]) if g.geom_type == "Polygon"]
+        return parts[0] if len(parts) == 1 else shapely.MultiPolygon(parts)
+
+    def thickness(self, c: int, fi: int) -> float:
+        """How far cell ``c`` reaches from face ``fi``: the largest distance of its vertices
+        to the line of the nearest of the face's segments, metres (the "vertex-to-surface
+        distance" of the wall rule, SPEC.md §3.4)."""
+        v = np.asarray(self.polygons[c].exterior.coords)[:-1, :2]
+        out = math.inf
+        for p, q in self.faces[fi].segments:
+            d = q - p
+            L = float(np.linalg.norm(d))
+            dist = np.linalg.norm(v - p, axis=1) if L == 0 else np.abs((v - p) @ (np.array([-d[1], d[0]]) / L))
+            out = min(out, float(dist.max()))
+        return out
+
     def cell_faces(self) -> list[list[int]]:
         """For each cell, the indices of all its faces (boundary ones included)."""
         out = [[] for _ in self.polygons]
@@ -316,6 +352,9 @@ def _segments(geom) -> list[np.ndarray]:
 
 _EDGE_TOL = 1e-6
 """Two cell outlines closer than this (metres) share an edge."""
+_HAIRLINE = 1e-4
+"""A hole of a union of cells smaller than this (m²) is float noise: the arrangement
+merges cells below ``min_cell_area`` (0.01 m²)."""
 
 
 def cellset_from_polygons(polygons: Sequence, z_range, min_face_length: float = 0.02) -> CellSet:
@@ -385,6 +424,8 @@ class CellCoverage:
     total_vertical : float — Cov(vpoints): the wall coverage of all faces together.
     ceiling_z, floor_z : (n,) float64 — median z of the ceiling / floor points over every
         cell (NaN where none), metres.
+    seen : (f,) bool or None — faces seen as walls (coverage ≥ ``min_wall_coverage`` of
+        their band), the faces that block the ceiling's alpha shape; None: not measured.
     """
 
     area: np.ndarray
@@ -395,6 +436,7 @@ class CellCoverage:
     total_vertical: float
     ceiling_z: np.ndarray
     floor_z: np.ndarray
+    seen: Optional[np.ndarray] = None
 
 
 def _points_in_cells(polys, xy: np.ndarray) -> np.ndarray:
@@ -495,7 +537,7 @@ def _face_band(f: Face, zr: np.ndarray, ceiling_z: np.ndarray, band: float) -> t
 def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.ndarray, *,
                      shape_buffer: float, r_alpha: float, thin: float, min_wall_coverage: float = 0.2,
                      wall_band: float = 0.6, alpha_spacing_factor: float = 7.0,
-                     should_check=None) -> CellCoverage:
+                     r_alpha_max: float = 0.0, should_check=None) -> CellCoverage:
     """Measure the per-cell and per-face coverage once (see the module doc).
 
     Parameters
@@ -518,6 +560,9 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
         the thinned ceiling points when that is larger (sparse scans: a fixed r_α leaves
         the gaps of a sparse sampling uncovered; walls are kept apart by the blocking
         faces, not by a small r_α). 0: r_α as given.
+    r_alpha_max : the ceiling's alpha shape follows the local spacing of the ceiling points
+        up to this bound (:func:`local_alpha`, with ``alpha_spacing_factor``), metres;
+        <= the global r_α: one bound everywhere.
     should_check : optional callable polled between faces (cancellation).
 
     Returns
@@ -576,7 +621,10 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
     seen = [fi for fi, f in enumerate(cells.faces)
             if face[fi] >= min_wall_coverage * f.length * np.diff(_face_band(f, zr, ceiling_z, wall_band))[0]]
     blockers = [s for fi in seen for s in cells.faces[fi].segments]
-    geom = alpha_geometry(thin_points(hw[upper][:, :2], thin), r_alpha, blockers=blockers, snap=shape_buffer)
+    seen_mask = np.zeros(len(cells.faces), dtype=bool)
+    seen_mask[seen] = True
+    geom = alpha_geometry(thin_points(hw[upper][:, :2], thin), r_alpha, blockers=blockers, snap=shape_buffer,
+                          local_factor=alpha_spacing_factor, r_max=r_alpha_max)
     total_h = float(geom.area)
     if geom.is_empty:
         top = np.zeros(n)
@@ -602,4 +650,4 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
                 inside = np.bincount(vox[:, 0], minlength=n).astype(np.float64) * thin * thin
     return CellCoverage(area=np.asarray(area, float), top=np.asarray(top, float), inside=inside,
                         face=face, total_horizontal=total_h, total_vertical=total_v,
-                        ceiling_z=ceiling_z, floor_z=floor_z)
+                        ceiling_z=ceiling_z, floor_z=floor_z, seen=seen_mask)

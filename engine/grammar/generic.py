@@ -94,6 +94,10 @@ class GenericParams:
     alpha_spacing_factor: float = 5.0
     """r_α is raised to this many median point spacings of the thinned ceiling points when
     that is larger (sparse scans)."""
+    r_alpha_max: float = 0.6
+    """The ceiling's alpha shape follows the local spacing (``alpha_spacing_factor`` local
+    spacings) up to this circumradius, metres: a mobile scan samples a room's ceiling ten
+    times more sparsely at its edges than under the path. <= r_α: one r_α everywhere."""
     wall_band: float = 0.6
     """Wall coverage is measured in this band under the ceiling (walls reach the ceiling,
     furniture rarely does), metres; 0: the whole face."""
@@ -318,15 +322,6 @@ def _polygon_coords(poly) -> np.ndarray:
     return np.asarray(poly.exterior.coords)[:-1, :2]
 
 
-def _line_dist(v: np.ndarray, seg: np.ndarray) -> np.ndarray:
-    d = seg[1] - seg[0]
-    L = np.linalg.norm(d)
-    if L == 0:
-        return np.linalg.norm(v - seg[0], axis=1)
-    nrm = np.array([-d[1], d[0]]) / L
-    return np.abs((v - seg[0]) @ nrm)
-
-
 def _weighted_median(v: np.ndarray, w: np.ndarray) -> float:
     """Area-weighted median of the cells' heights (a cell under a table does not tilt it)."""
     o = np.argsort(v)
@@ -361,7 +356,7 @@ def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) 
     # --- interior spaces
     for k, sp in enumerate(res.spaces):
         sp = list(sp)
-        poly = shapely.union_all([cells.polygons[c] for c in sp])
+        poly = cells.union(sp)
         if poly.geom_type != "Polygon":
             poly = max(poly.geoms, key=lambda g: g.area)
         if len(poly.interiors):
@@ -391,15 +386,13 @@ def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) 
     for c in range(n):
         if space_of[c] >= 0:
             continue
-        v = np.asarray(cells.polygons[c].exterior.coords)[:-1, :2]
         thick = None
         for o, fi in nb[c]:
             if space_of[o] < 0:
                 continue
-            for seg in cells.faces[fi].segments:
-                d = float(_line_dist(v, seg).max())
-                if d <= max_wall_thickness and (thick is None or d < thick):
-                    thick = d
+            d = cells.thickness(c, fi)
+            if d <= max_wall_thickness and (thick is None or d < thick):
+                thick = d
         if thick is None:
             continue
         wid = f"s{index}_wall{wall_no}"
@@ -426,7 +419,7 @@ def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) 
                     left.discard(o)
                     comp.append(o)
                     stack.append(o)
-        u = shapely.union_all([cells.polygons[c] for c in comp])
+        u = cells.union(comp)
         groups = [comp] if (u.geom_type == "Polygon" and not u.interiors) else [[c] for c in comp]
         for g in groups:
             poly = u if len(groups) == 1 else cells.polygons[g[0]]
@@ -630,6 +623,7 @@ def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = Non
                                shape_buffer=params.shape_buffer, r_alpha=params.r_alpha,
                                thin=params.coverage_grid, min_wall_coverage=params.min_wall_coverage,
                                wall_band=params.wall_band, alpha_spacing_factor=params.alpha_spacing_factor,
+                               r_alpha_max=params.r_alpha_max,
                                should_check=p.check)
         t_cov += time.perf_counter() - t1
         t1 = time.perf_counter()

@@ -53,6 +53,10 @@ Departures from SPEC.md (recorded here as asked):
   (``RjmcmcParams.absorb_covered``): ``P_L`` multiplies coverage *ratios*, so a partly
   occluded cell at a room's edge (ceiling coverage 0.5–0.9) lowers the score although it
   lies under the room's ceiling; the returned ``log_posterior`` is that of the final model.
+  A cell walled in by seen walls except towards one space joins it with less ceiling
+  coverage (``walled_in_ratio``): at the far end of a corridor the ceiling is sampled a
+  few points per m² and its alpha shape covers half a corner cell, yet the cell cannot be
+  exterior — nothing but the room reaches it (office_mw: the corridor's end wall).
 * The chain starts from a greedy best-improvement ascent from the empty model
   (``RjmcmcParams.greedy_start``), and after the chain, a greedy *polish* applies
 the best strictly improving move until none improves (``RjmcmcParams.polish``). The
@@ -132,7 +136,13 @@ class RjmcmcParams:
     the plain product of ratios (see the module doc); False: SPEC.md's product."""
     absorb_covered: bool = True
     """After the search, an untyped *covered* cell adjacent to exactly one space joins it
-    (repeated until nothing changes): it lies under that room's ceiling. See the module doc."""
+    (repeated until nothing changes): it lies under that room's ceiling. So does a
+    *walled-in* one (see ``walled_in_ratio``). See the module doc."""
+    walled_in_ratio: float = 0.1
+    """An untyped cell adjacent to exactly one space whose every other face is a seen wall
+    (no way out but through that space) joins it when at least this share of its footprint
+    is under the ceiling — a sparsely seen corner; a column or a cupboard reaching the
+    ceiling, walled-in too, has no ceiling over it. > 1: off."""
     trace_every: int = 50
     """Record (iteration, log-score, spaces) in the trace every this many iterations."""
 
@@ -406,19 +416,49 @@ class SpaceSearch:
             cur = top[0]
             moves += 1
 
+    def walled_in(self, c: int, sid: int) -> bool:
+        """Whether cell ``c`` is walled in except towards space ``sid`` — each of its other
+        faces a seen wall or shared with a wall cell (untyped, within the maximum wall
+        thickness of a face it shares with a space — the wall rule of SPEC.md §3.4: a wall
+        seen at a grazing angle leaves too few points on a short face) — and enough of it lies under the ceiling
+        (``RjmcmcParams.walled_in_ratio``)."""
+        seen = self.cov.seen
+        if seen is None or self.cov.top[c] < self.params.walled_in_ratio * max(self.cov.area[c], 1e-12):
+            return False
+        for fi in self.cfaces[c]:
+            a, b = self.face_ab[fi]
+            other = b if a == c else a
+            if seen[fi] or (other >= 0 and self.space_of[other] == sid):
+                continue
+            if other < 0 or self.space_of[other] >= 0 or not self._wall_cell(other):
+                return False
+        return True
+
+    def _wall_cell(self, o: int) -> bool:
+        """Whether untyped cell ``o`` is thin against a face it shares with a space."""
+        for fi in self.cfaces[o]:
+            a, b = self.face_ab[fi]
+            other = b if a == o else a
+            if other >= 0 and self.space_of[other] >= 0 and \
+                    self.cells.thickness(o, fi) <= self.params.max_wall_thickness:
+                return True
+        return False
+
     def absorb_covered(self) -> int:
-        """Add every untyped covered cell adjacent to exactly one space to it (repeatedly).
-        Returns the number of cells added."""
+        """Add every untyped cell adjacent to exactly one space to it when it is covered or
+        walled in (repeatedly). Returns the number of cells added."""
         added, changed = 0, True
         while changed:
             changed = False
             for c in range(self.n):
-                if self.space_of[c] >= 0 or not self.covered[c]:
+                if self.space_of[c] >= 0:
                     continue
                 adj = self.adjacent_spaces(c)
                 if len(adj) != 1:
                     continue
                 sid = adj.pop()
+                if not (self.covered[c] or self.walled_in(c, sid)):
+                    continue
                 self.apply([sid], [self.spaces[sid] | {c}])
                 added += 1
                 changed = True
@@ -552,7 +592,7 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
                         xyz_horizontal: np.ndarray, params: RjmcmcParams = RjmcmcParams(), *,
                         shape_buffer: float, r_alpha: float, thin: float,
                         min_wall_coverage: float = 0.2, wall_band: float = 0.6,
-                        alpha_spacing_factor: float = 7.0) -> float:
+                        alpha_spacing_factor: float = 7.0, r_alpha_max: float = 0.0) -> float:
     """The thesis's full re-score of a model from the points (reference for tests/benchmark).
 
     Every call thins the points, builds the alpha shapes of all ceiling points and of every
@@ -565,7 +605,7 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
     cells : CellSet
     xyz_wall, xyz_horizontal : (n, 3) / (m, 3) float64 — wall and floor/ceiling points, metres.
     params : RjmcmcParams
-    shape_buffer, r_alpha, thin, min_wall_coverage, wall_band, alpha_spacing_factor : as for
+    shape_buffer, r_alpha, thin, min_wall_coverage, wall_band, alpha_spacing_factor, r_alpha_max : as for
         :func:`~.coverage.measure_coverage`.
 
     Returns
@@ -589,7 +629,8 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
     V = float(sum(fcov))
     blockers = [s for fi, f in enumerate(cells.faces) if fcov[fi] >= min_wall_coverage * f.length * bands[fi]
                 for s in f.segments]
-    geom_h = alpha_geometry(ceil[:, :2], r_alpha, blockers=blockers, snap=shape_buffer)
+    geom_h = alpha_geometry(ceil[:, :2], r_alpha, blockers=blockers, snap=shape_buffer,
+                            local_factor=alpha_spacing_factor, r_max=r_alpha_max)
     H = geom_h.area
     polys = np.array(cells.polygons, dtype=object)
     cell_top = shapely.area(shapely.intersection(geom_h, polys)) if not geom_h.is_empty else np.zeros(len(polys))
@@ -597,7 +638,7 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
     H, V = max(H, 1e-12), max(V, 1e-12)
     s_top = s_vert = s_in = s_log = 0.0
     for sp in spaces:
-        poly = shapely.union_all([cells.polygons[c] for c in sp])
+        poly = cells.union(sp)
         z0, z1 = zr[list(sp)][:, 0].min(), zr[list(sp)][:, 1].max()
         v = np.asarray(poly.exterior.coords)[:-1] if poly.geom_type == "Polygon" else \
             np.vstack([np.asarray(g.exterior.coords)[:-1] for g in poly.geoms])
