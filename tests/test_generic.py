@@ -116,11 +116,31 @@ def test_bad_input_and_cancel(skew_run):
         reconstruct_generic(skew_run[1], should_stop=lambda: True)
 
 
+@pytest.fixture(scope="module")
+def office_scan():
+    from engine.synthetic import preset
+
+    return preset("office_mw", seed=1, noise="tls", target_points=300_000)
+
+
+def test_generic_at_least_as_good_as_manhattan_on_office(office_scan):
+    """Done-when: on office_mw the generic method is at least as good as the Manhattan
+    grammar (same scan, completeness/correctness at b = 10 cm and median distance)."""
+    from engine.grammar import reconstruct_manhattan
+
+    gen = reconstruct_generic(office_scan.cloud, rng=0)
+    man = reconstruct_manhattan(office_scan.cloud, rng=0)
+    assert len(gen.spaces) == len(man.spaces) == len(office_scan.truth.spaces)
+    g, m = _scores(gen, office_scan.truth), _scores(man, office_scan.truth)
+    assert g[0] >= m[0] and g[1] >= m[1], (g, m)
+    assert g[2] <= m[2] + 1e-4, (g, m)
+
+
 @pytest.mark.parametrize("name,noise,min_cc,max_acc", [
     ("syn_house", "tls", 0.95, 0.005),
     ("hexagon_hall", "tls", 0.95, 0.005),
     ("hexagon_hall", "mobile", 0.90, 0.025),
-    ("office_mw", "tls", 0.99, 0.005),
+    ("syn_house", "mobile", 0.90, 0.025),
 ])
 def test_preset_quality(name, noise, min_cc, max_acc):
     """Done-when: non-Manhattan presets (slanted walls / 60° walls, furniture, several
