@@ -191,10 +191,13 @@ class PointCloud:
         )
 
     def mean_spacing(self, sample: int = 20000, rng=0) -> float:
-        """Mean distance from a point to its nearest neighbour, in metres.
+        """Mean distance from a point to its nearest *distinct* neighbour, in metres.
 
         Estimated on a random sample of at most ``sample`` query points against the whole
-        cloud (a k-d tree). Returns 0.0 for fewer than two points.
+        cloud (a k-d tree). Exact duplicates are skipped (the PCL room scans hold every
+        point twice, which would read as a spacing of 0); a sample point with only
+        duplicates among its 8 nearest neighbours does not count. Returns 0.0 for fewer
+        than two distinct points.
         """
         if len(self.xyz) < 2:
             return 0.0
@@ -203,8 +206,15 @@ class PointCloud:
         rng = np.random.default_rng(rng)
         tree = cKDTree(self.xyz)
         q = self.xyz if len(self.xyz) <= sample else self.xyz[rng.choice(len(self.xyz), sample, replace=False)]
-        d, _ = tree.query(q, k=2)
-        return float(np.mean(d[:, 1]))
+        k = min(9, len(self.xyz))
+        d, _ = tree.query(q, k=k)
+        d = d[:, 1:].reshape(len(q), -1)
+        distinct = d > 1e-9
+        has = distinct.any(axis=1)
+        if not has.any():
+            return 0.0
+        first = d[has, np.argmax(distinct[has], axis=1)]
+        return float(np.mean(first))
 
     def summary(self) -> dict:
         """JSON-ready facts: count, bounds (original frame), fields, spacing, scans."""

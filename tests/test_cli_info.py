@@ -43,6 +43,19 @@ def test_info_text_output_on_the_real_scan(capsys):
     out = capsys.readouterr().out
     assert code == 0
     assert "112,586" in out and "room_scan1.pcd" in out and "scans         1" in out
+    # the PCL scan holds every point twice: the spacing is that of the distinct points
+    # (single-position scan, 1-13 m ranges: about 3 cm), not 0
+    spacing = float(out.split("mean spacing")[1].split("mm")[0])
+    assert 10.0 < spacing < 60.0, out
+
+
+def test_mean_spacing_skips_exact_duplicates():
+    g = np.stack(np.meshgrid(np.arange(30) * 0.05, np.arange(30) * 0.05), -1).reshape(-1, 2)
+    xyz = np.column_stack([g, np.zeros(len(g))])
+    once = PointCloud(xyz=xyz).mean_spacing()
+    twice = PointCloud(xyz=np.vstack([xyz, xyz, xyz])).mean_spacing()
+    assert once == pytest.approx(0.05) and twice == pytest.approx(0.05)
+    assert PointCloud(xyz=np.zeros((5, 3))).mean_spacing() == 0.0
 
 
 def test_batch_with_a_bad_file_goes_on_and_fails(capsys, grid_ply, tmp_path):
