@@ -8,6 +8,14 @@ import bpy
 from . import bridge, operators
 
 
+def _model_stored(layout) -> bool:
+    """Whether a reconstructed model is stored in the .blend; if not, say so in the panel."""
+    if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
+        layout.label(text="Reconstruct a scan first", icon="INFO")
+        return False
+    return True
+
+
 def _summary(text: str) -> dict:
     """A JSON summary stored by an operator ({} when empty or unreadable)."""
     if not text:
@@ -120,8 +128,7 @@ class INDOOR_PT_review(_IndoorPanel, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         settings = getattr(context.scene, "indoor", None)
-        if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
-            layout.label(text="Reconstruct a scan first", icon="INFO")
+        if not _model_stored(layout):
             return
         obj = context.active_object
         if obj is not None and bridge.SHAPE_PROP in obj:
@@ -153,8 +160,7 @@ class INDOOR_PT_topology(_IndoorPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
-            layout.label(text="Reconstruct a scan first", icon="INFO")
+        if not _model_stored(layout):
             return
         row = layout.row(align=True)
         for kind, label in (("adjacency", "Adjacency"), ("connectivity", "Connectivity")):
@@ -179,8 +185,7 @@ class INDOOR_PT_evaluate(_IndoorPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
-            layout.label(text="Reconstruct a scan first", icon="INFO")
+        if not _model_stored(layout):
             return
         layout.operator("indoor.evaluate", text="Evaluate against reference…", icon="CHECKMARK")
         settings = getattr(context.scene, "indoor", None)
@@ -208,8 +213,7 @@ class INDOOR_PT_changes(_IndoorPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
-            layout.label(text="Reconstruct a scan first", icon="INFO")
+        if not _model_stored(layout):
             return
         row = layout.row(align=True)
         row.operator("indoor.detect_changes", text="Scan file…", icon="FILE_FOLDER").use_active = False
@@ -249,8 +253,7 @@ class INDOOR_PT_export(_IndoorPanel, bpy.types.Panel):
         if operators.bonsai_available():
             op = layout.operator("indoor.export_ifc", text="Export and open in Bonsai", icon="FILE_BLEND")
             op.open_in_bonsai = True
-        if bpy.data.texts.get(bridge.MODEL_TEXT) is None:
-            layout.label(text="Reconstruct a scan first", icon="INFO")
+        _model_stored(layout)
 
 
 CLASSES = (INDOOR_PT_import_scan, INDOOR_PT_reconstruct, INDOOR_PT_review, INDOOR_PT_topology,
