@@ -33,8 +33,8 @@ Departures from SPEC.md (recorded here as asked):
 
 * The prior has a second condition (``RjmcmcParams.connected_cover``): the cells of a
   space that lie under the ceiling (coverage ratio ≥ ``cover_ratio``) must be connected
-  through shared faces at least ``link_length`` long, i.e. a space is one region under one
-  ceiling, and it needs at least one such cell. Without it the product of per-space coverage ratios in ``P_L`` (each a
+  through shared faces at least ``link_length`` long that are not seen walls, i.e. a space
+  is one region under one ceiling, and it needs at least one such cell. Without it the product of per-space coverage ratios in ``P_L`` (each a
   little below 1 on real data) rewards gluing neighbouring rooms together through the
   small uncovered cells where walls meet (or through a wall cell), which the scope width
   alone (one oriented box per space) cannot see. Uncovered cells may still join a space at
@@ -114,7 +114,7 @@ class RjmcmcParams:
     shape."""
     link_length: float = 0.15
     """Covered cells of a space must connect through faces at least this long, metres
-    (about half a wall's thickness)."""
+    (about half a wall's thickness), that are not seen walls."""
     beta: float = 0.0
     """Convergence factor β: accept when α > U, U ~ Uniform[β, 1] (0: plain MH)."""
     iterations: int = 0
@@ -205,7 +205,11 @@ class SpaceSearch:
         # covered cells link through faces longer than a wall is thick: a scrap of a wall
         # cell (short faces, too few wall points to block the ceiling's alpha shape) must
         # not join two rooms
-        self.long_nbrs = [[o for o, fi in lst if cells.faces[fi].length >= params.link_length]
+        # nor link through a face seen as a wall: where two walls cross, the cell of their
+        # crossing is as long as the wall is thick and half under the ceiling of the room
+        # whose wall face there is too short to be seen (office_mw mobile, seed 3)
+        seen = coverage.seen if coverage.seen is not None else np.zeros(len(cells.faces), bool)
+        self.long_nbrs = [[o for o, fi in lst if cells.faces[fi].length >= params.link_length and not seen[fi]]
                           for lst in cells.neighbours()]
         self.space_of = np.full(n, -1, dtype=np.int64)
         self.spaces: dict[int, frozenset] = {}
@@ -420,15 +424,21 @@ class SpaceSearch:
         """Whether cell ``c`` is walled in except towards space ``sid`` — each of its other
         faces a seen wall or shared with a wall cell (untyped, within the maximum wall
         thickness of a face it shares with a space — the wall rule of SPEC.md §3.4: a wall
-        seen at a grazing angle leaves too few points on a short face) — and enough of it lies under the ceiling
-        (``RjmcmcParams.walled_in_ratio``)."""
+        seen at a grazing angle leaves too few points on a short face) — and enough of it
+        lies under the ceiling (``RjmcmcParams.walled_in_ratio``). No covered cell may lie
+        beyond it: a wall cell between the space and a room the search left out (a shelf
+        strip against an outer wall has only walls behind it)."""
         seen = self.cov.seen
         if seen is None or self.cov.top[c] < self.params.walled_in_ratio * max(self.cov.area[c], 1e-12):
             return False
         for fi in self.cfaces[c]:
             a, b = self.face_ab[fi]
             other = b if a == c else a
-            if seen[fi] or (other >= 0 and self.space_of[other] == sid):
+            if other >= 0 and self.space_of[other] == sid:
+                continue
+            if other >= 0 and self.covered[other]:
+                return False
+            if seen[fi]:
                 continue
             if other < 0 or self.space_of[other] >= 0 or not self._wall_cell(other):
                 return False
