@@ -157,3 +157,16 @@ def test_prior_and_kernel():
     assert math.isfinite(st.evaluate([], [frozenset({1})])[0])
     k = st.kernel_log_ratio(1, 2)
     assert k == pytest.approx(math.log(0.83 / 0.9))
+
+
+def test_prior_needs_a_room_sized_floor():
+    from engine.grammar.coverage import CellCoverage
+
+    # a 0.6 m x 1.2 m cell (0.72 m², wider than a wall) and a 4 m x 3 m room
+    cells = cellset_from_polygons([shapely.box(0, 0, 0.6, 1.2), shapely.box(0.6, 0, 4.6, 3)], (0.0, 2.5))
+    cov = CellCoverage(area=cells.areas, top=cells.areas.copy(), inside=np.zeros(2), face=np.ones(len(cells.faces)),
+                       total_horizontal=float(cells.areas.sum()), total_vertical=float(len(cells.faces)),
+                       ceiling_z=np.full(2, 2.5), floor_z=np.zeros(2))
+    assert math.isinf(SpaceSearch(cells, cov).evaluate([], [frozenset({0})])[0])
+    assert math.isfinite(SpaceSearch(cells, cov, RjmcmcParams(min_space_area=0.5)).evaluate([], [frozenset({0})])[0])
+    assert math.isfinite(SpaceSearch(cells, cov).evaluate([], [frozenset({0, 1})])[0])
