@@ -217,6 +217,9 @@ class SpaceSearch:
         seen = coverage.seen if coverage.seen is not None else np.zeros(len(cells.faces), bool)
         self.long_nbrs = [[o for o, fi in lst if cells.faces[fi].length >= params.link_length and not seen[fi]]
                           for lst in cells.neighbours()]
+        # a covered cell with no such face (a scrap where wall lines cross, walled off) can
+        # link nothing, so it glues nothing: the connectivity test passes over it
+        self.linkable = self.covered & np.array([bool(x) for x in self.long_nbrs], dtype=bool)
         self.space_of = np.full(n, -1, dtype=np.int64)
         self.spaces: dict[int, frozenset] = {}
         self.stats: dict[int, tuple] = {}
@@ -261,9 +264,9 @@ class SpaceSearch:
         return top, vert, inside, lg, ok
 
     def _cover_connected(self, S: frozenset) -> bool:
-        cov = [c for c in S if self.covered[c]]
+        cov = [c for c in S if self.linkable[c]]
         if len(cov) <= 1:
-            return bool(cov)
+            return bool(cov) or any(self.covered[c] for c in S)
         left = set(cov)
         stack = [left.pop()]
         while stack:
