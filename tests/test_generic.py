@@ -105,6 +105,12 @@ def test_arrange_cells_partitions_the_extent():
     assert sum(c.area for c in cells) == pytest.approx(60.0)
     assert len(cells) == 6
     assert len(arrange_cells(np.zeros((0, 3)), ext)) == 1
+    # two lines a centimetre apart cut a 1 cm strip (0.06 m², above the area bound): it
+    # joins a neighbour when narrower than min_cell_width
+    close = np.array([[1.0, 0.0, 4.0], [1.0, 0.0, 4.01]])
+    assert len(arrange_cells(close, ext)) == 3
+    merged = arrange_cells(close, ext, min_cell_width=GenericParams().min_cell_width)
+    assert len(merged) == 2 and sum(c.area for c in merged) == pytest.approx(60.0)
 
 
 def test_bad_input_and_cancel(skew_run):

@@ -114,6 +114,11 @@ class GenericParams:
     """... and this in offset are one line (duplicates would only make slivers), metres."""
     min_cell_area: float = 0.01
     """Cells smaller than this join their neighbour with the longest shared edge, m²."""
+    min_cell_width: float = 0.03
+    """... and so do cells narrower than this (``2 × area / perimeter``, metres): two wall
+    lines crossing at a few degrees, or two faces a centimetre apart, cut wedges and strips
+    that are no room and no wall (syn_house seed 3: a 1 cm strip split a room's corner off
+    into a sixth "room")."""
     min_face_length: float = 0.02
     """Shared edges shorter than this do not make cells adjacent, metres."""
     manhattan_threshold: float = 0.85
@@ -238,7 +243,7 @@ def wall_lines(planes, storey: int, params: GenericParams) -> np.ndarray:
     return np.array(kept, dtype=np.float64).reshape(-1, 3)
 
 
-def arrange_cells(lines: np.ndarray, extent, min_cell_area: float = 0.01) -> list:
+def arrange_cells(lines: np.ndarray, extent, min_cell_area: float = 0.01, min_cell_width: float = 0.0) -> list:
     """2-D cells of the arrangement of lines inside a polygonal extent.
 
     Parameters
@@ -247,6 +252,7 @@ def arrange_cells(lines: np.ndarray, extent, min_cell_area: float = 0.01) -> lis
     extent : shapely Polygon — the region to partition (e.g. the storey's box).
     min_cell_area : cells below this area (m²) join the neighbour with the longest shared
         edge.
+    min_cell_width : so do cells whose width ``2 × area / perimeter`` is below this, metres.
 
     Returns
     -------
@@ -270,10 +276,10 @@ def arrange_cells(lines: np.ndarray, extent, min_cell_area: float = 0.01) -> lis
             segs.append(cl)
     noded = shapely.union_all(segs)
     cells = [p for p in polygonize(noded) if p.area > 0 and extent.contains(p.representative_point())]
-    return _merge_small(cells, min_cell_area)
+    return _merge_small(cells, min_cell_area, min_cell_width)
 
 
-def _merge_small(cells: list, min_area: float) -> list:
+def _merge_small(cells: list, min_area: float, min_width: float = 0.0) -> list:
     import shapely
 
     cells = list(cells)
@@ -281,9 +287,11 @@ def _merge_small(cells: list, min_area: float) -> list:
     while changed and len(cells) > 1:
         changed = False
         areas = np.array([p.area for p in cells])
-        order = np.argsort(areas)
+        widths = 2.0 * areas / np.maximum([p.length for p in cells], 1e-12)
+        small = (areas < min_area) | (widths < min_width)
+        order = np.argsort(np.where(small, areas, np.inf))
         for i in order:
-            if areas[i] >= min_area:
+            if not small[i]:
                 break
             best, blen = None, 0.0
             for j, q in enumerate(cells):
@@ -612,7 +620,7 @@ def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = Non
         lo, hi = xyz[:, :2].min(axis=0) - params.extent_margin, xyz[:, :2].max(axis=0) + params.extent_margin
         extent = shapely.box(lo[0], lo[1], hi[0], hi[1])
         lines = wall_lines(planes, si, params)
-        polys = arrange_cells(lines, extent, params.min_cell_area)
+        polys = arrange_cells(lines, extent, params.min_cell_area, params.min_cell_width)
         cells = cellset_from_polygons(polys, (st.floor_z, z_hi), params.min_face_length)
         t_cells += time.perf_counter() - t1
         t1 = time.perf_counter()
