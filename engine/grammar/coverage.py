@@ -34,8 +34,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-__all__ = ["adaptive_alpha", "local_alpha", "cell_heights", "alpha_triangles", "alpha_area", "alpha_geometry", "thin_points", "Face", "CellSet",
-           "CellCoverage", "measure_coverage", "cellset_from_polygons"]
+__all__ = ["adaptive_alpha", "local_alpha", "cell_heights", "alpha_triangles", "alpha_area", "alpha_geometry",
+           "thin_points", "Face", "CellSet", "CellCoverage", "measure_coverage", "cellset_from_polygons"]
 
 log = logging.getLogger(__name__)
 
@@ -296,8 +296,9 @@ class CellSet:
 
     def union(self, cells) -> object:
         """Union of the footprints of ``cells`` (indices), snap-rounded to a grid of
-        ``10 × _EDGE_TOL`` metres (the tolerance of the faces' outline test below): a vertex one cell kept and its neighbour dropped (merged
-        slivers, float noise) must not split the union into pieces; hairline holes (area ≤ ``_HAIRLINE``) are dropped.
+        ``10 × _EDGE_TOL`` metres (the tolerance of the faces' outline test below): a vertex
+        one cell kept and its neighbour dropped (merged slivers, float noise) must not split
+        the union into pieces; hairline holes (area ≤ ``_HAIRLINE``) are dropped.
 
         Returns a shapely Polygon, or a MultiPolygon when the cells are not connected."""
         import shapely
@@ -316,7 +317,10 @@ class CellSet:
         for p, q in self.faces[fi].segments:
             d = q - p
             L = float(np.linalg.norm(d))
-            dist = np.linalg.norm(v - p, axis=1) if L == 0 else np.abs((v - p) @ (np.array([-d[1], d[0]]) / L))
+            if L == 0:
+                dist = np.linalg.norm(v - p, axis=1)
+            else:
+                dist = np.abs((v - p) @ (np.array([-d[1], d[0]]) / L))
             out = min(out, float(dist.max()))
         return out
 

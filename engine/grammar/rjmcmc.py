@@ -35,11 +35,11 @@ Departures from SPEC.md (recorded here as asked):
 * The prior has a second condition (``RjmcmcParams.connected_cover``): the cells of a
   space that lie under the ceiling (coverage ratio ≥ ``cover_ratio``) must be connected
   through shared faces at least ``link_length`` long that are not seen walls, i.e. a space
-  is one region under one ceiling, and it needs at least one such cell. Without it the product of per-space coverage ratios in ``P_L`` (each a
-  little below 1 on real data) rewards gluing neighbouring rooms together through the
-  small uncovered cells where walls meet (or through a wall cell), which the scope width
-  alone (one oriented box per space) cannot see. Uncovered cells may still join a space at
-  its edge; the likelihood decides.
+  is one region under one ceiling, and it needs at least one such cell. Without it the
+  product of per-space coverage ratios in ``P_L`` (each a little below 1 on real data)
+  rewards gluing neighbouring rooms together through the small uncovered cells where walls
+  meet (or through a wall cell), which the scope width alone (one oriented box per space)
+  cannot see. Uncovered cells may still join a space at its edge; the likelihood decides.
 * ``P_vert`` credits a boundary face to a space only where the space's cell on that face
   is covered: a wall is seen from under the room's ceiling. Otherwise taking in the wall
   cell between two rooms lets one room claim the other room's wall surface.
@@ -145,10 +145,10 @@ class RjmcmcParams:
     (repeated until nothing changes): it lies under that room's ceiling. So does a
     *walled-in* one (see ``walled_in_ratio``). See the module doc."""
     walled_in_ratio: float = 0.1
-    """An untyped cell adjacent to exactly one space whose every other face is a seen wall
-    (no way out but through that space) joins it when at least this share of its footprint
-    is under the ceiling — a sparsely seen corner; a column or a cupboard reaching the
-    ceiling, walled-in too, has no ceiling over it. > 1: off."""
+    """An untyped cell adjacent to exactly one space and walled in otherwise (no way out but
+    through that space, :meth:`SpaceSearch.walled_in`) joins it when at least this share of
+    its footprint is under the ceiling — a sparsely seen corner; a column or a cupboard
+    reaching the ceiling, walled-in too, has no ceiling over it. > 1: off."""
     trace_every: int = 50
     """Record (iteration, log-score, spaces) in the trace every this many iterations."""
 
@@ -215,8 +215,8 @@ class SpaceSearch:
         # crossing is as long as the wall is thick and half under the ceiling of the room
         # whose wall face there is too short to be seen (office_mw mobile, seed 3)
         seen = coverage.seen if coverage.seen is not None else np.zeros(len(cells.faces), bool)
-        self.long_nbrs = [[o for o, fi in lst if cells.faces[fi].length >= params.link_length and not seen[fi]]
-                          for lst in cells.neighbours()]
+        self.long_nbrs = [[o for o, fi in lst if cells.faces[fi].length >= params.link_length
+                           and not seen[fi]] for lst in cells.neighbours()]
         # a covered cell with no such face (a scrap where wall lines cross, walled off) can
         # link nothing, so it glues nothing: the connectivity test passes over it
         self.linkable = self.covered & np.array([bool(x) for x in self.long_nbrs], dtype=bool)
@@ -629,7 +629,8 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
     cells : CellSet
     xyz_wall, xyz_horizontal : (n, 3) / (m, 3) float64 — wall and floor/ceiling points, metres.
     params : RjmcmcParams
-    shape_buffer, r_alpha, thin, min_wall_coverage, wall_band, alpha_spacing_factor, r_alpha_max : as for
+    shape_buffer, r_alpha, thin, min_wall_coverage, wall_band, alpha_spacing_factor,
+    r_alpha_max : as for
         :func:`~.coverage.measure_coverage`.
 
     Returns
