@@ -295,15 +295,19 @@ class CellSet:
         return out
 
     def union(self, cells) -> object:
-        """Union of the footprints of ``cells`` (indices), snap-rounded to a grid of
-        ``10 × _EDGE_TOL`` metres (the tolerance of the faces' outline test below): a vertex
-        one cell kept and its neighbour dropped (merged slivers, float noise) must not split
-        the union into pieces; hairline holes (area ≤ ``_HAIRLINE``) are dropped.
+        """Union of the footprints of ``cells`` (indices), tolerant of gaps up to
+        ``2 × 10 × _EDGE_TOL`` metres (the tolerance of the faces' outline test below): each
+        footprint is grown by 1e-5 m, the union shrunk back. A vertex one cell kept and its
+        neighbour dropped (merged slivers) leaves the two outlines a few µm apart along their
+        shared edge, which a plain union keeps as two pieces; hairline holes (area ≤
+        ``_HAIRLINE``) are dropped.
 
         Returns a shapely Polygon, or a MultiPolygon when the cells are not connected."""
         import shapely
 
-        u = shapely.union_all([self.polygons[c] for c in cells], grid_size=10 * _EDGE_TOL)
+        eps = 10 * _EDGE_TOL
+        grown = shapely.buffer(np.array([self.polygons[c] for c in cells], dtype=object), eps, join_style="mitre")
+        u = shapely.buffer(shapely.union_all(grown), -eps, join_style="mitre")
         parts = [shapely.Polygon(g.exterior, [r for r in g.interiors if shapely.Polygon(r).area > _HAIRLINE])
                  for g in getattr(u, "geoms", [u]) if g.geom_type == "Polygon"]
         return parts[0] if len(parts) == 1 else shapely.MultiPolygon(parts)
