@@ -328,6 +328,19 @@ class CellSet:
             out = min(out, float(dist.max()))
         return out
 
+    def wall_thickness(self, c: int, faces, in_space) -> float:
+        """SPEC.md §3.4's wall rule for cell ``c``: the smallest :meth:`thickness` of ``c``
+        against those of its ``faces`` (face indices, e.g. from :meth:`cell_faces`) that it
+        shares with a cell where ``in_space`` ((n,) bool) is True, metres; inf when there is
+        none. ``c`` is a wall when this is at most the maximum wall thickness."""
+        out = math.inf
+        for fi in faces:
+            f = self.faces[fi]
+            other = f.b if f.a == c else f.a
+            if other >= 0 and in_space[other]:
+                out = min(out, self.thickness(c, fi))
+        return out
+
     def cell_faces(self) -> list[list[int]]:
         """For each cell, the indices of all its faces (boundary ones included)."""
         out = [[] for _ in self.polygons]

@@ -404,14 +404,8 @@ def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) 
     for c in range(n):
         if space_of[c] >= 0:
             continue
-        thick = None
-        for o, fi in nb[c]:
-            if space_of[o] < 0:
-                continue
-            d = cells.thickness(c, fi)
-            if d <= max_wall_thickness and (thick is None or d < thick):
-                thick = d
-        if thick is None:
+        thick = cells.wall_thickness(c, [fi for _, fi in nb[c]], space_of >= 0)
+        if thick > max_wall_thickness:
             continue
         wid = f"s{index}_wall{wall_no}"
         wall_no += 1

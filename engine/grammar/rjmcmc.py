@@ -456,13 +456,8 @@ class SpaceSearch:
 
     def _wall_cell(self, o: int) -> bool:
         """Whether untyped cell ``o`` is thin against a face it shares with a space."""
-        for fi in self.cfaces[o]:
-            a, b = self.face_ab[fi]
-            other = b if a == o else a
-            if other >= 0 and self.space_of[other] >= 0 and \
-                    self.cells.thickness(o, fi) <= self.params.max_wall_thickness:
-                return True
-        return False
+        d = self.cells.wall_thickness(o, self.cfaces[o], self.space_of >= 0)
+        return d <= self.params.max_wall_thickness
 
     def absorb_covered(self) -> int:
         """Add every untyped cell adjacent to exactly one space to it when it is covered or
