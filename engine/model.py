@@ -83,6 +83,108 @@ def _ro(a, dtype=np.float64, shape=None) -> np.ndarray:
     return a
 
 
+# ----------------------------------------------------------------------------- JSON checks
+class _Malformed(ValueError):
+    """A field of a model JSON has the wrong type or value; the message says where."""
+
+
+_REQUIRED = object()
+
+
+def _json_kind(v) -> str:
+    """The JSON name of the type of ``v`` (for messages)."""
+    if v is None:
+        return "null"
+    if isinstance(v, bool):
+        return "a boolean"
+    if isinstance(v, (int, float)):
+        return "a number"
+    if isinstance(v, str):
+        return "a string"
+    if isinstance(v, (list, tuple)):
+        return "an array"
+    if isinstance(v, Mapping):
+        return "an object"
+    return type(v).__name__
+
+
+def _obj(v, where: str) -> Mapping:
+    if not isinstance(v, Mapping):
+        raise _Malformed(f"{where} must be an object, not {_json_kind(v)}")
+    return v
+
+
+def _get(d: Mapping, key: str, where: str, default=_REQUIRED):
+    if key in d:
+        return d[key]
+    if default is _REQUIRED:
+        raise _Malformed(f"{where} has no {key!r}")
+    return default
+
+
+def _text(v, where: str, optional: bool = False):
+    if v is None and optional:
+        return None
+    if not isinstance(v, str):
+        raise _Malformed(f"{where} must be a string, not {_json_kind(v)}")
+    return v
+
+
+def _integer(v, where: str) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+        if isinstance(v, float) and v.is_integer():
+            return int(v)
+        raise _Malformed(f"{where} must be a whole number, not {_json_kind(v)}")
+    return int(v)
+
+
+def _flag(v, where: str) -> bool:
+    if isinstance(v, bool) or (isinstance(v, int) and v in (0, 1)):
+        return bool(v)
+    raise _Malformed(f"{where} must be true or false, not {_json_kind(v)}")
+
+
+def _number(v, where: str, finite: bool = True) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise _Malformed(f"{where} must be a number, not {_json_kind(v)}")
+    x = float(v)
+    if finite and not np.isfinite(x):
+        raise _Malformed(f"{where} must be finite, not {x}")
+    return x
+
+
+def _array(v, where: str) -> list:
+    if not isinstance(v, (list, tuple)):
+        raise _Malformed(f"{where} must be an array, not {_json_kind(v)}")
+    return list(v)
+
+
+def _numbers(v, where: str, shape: tuple) -> np.ndarray:
+    """float64 array of ``shape`` (-1 for any length) from nested arrays of finite numbers."""
+    if not isinstance(v, (list, tuple, np.ndarray)):
+        raise _Malformed(f"{where} must be an array, not {_json_kind(v)}")
+    try:
+        a = np.asarray(v)
+    except ValueError:  # ragged
+        raise _Malformed(f"{where} must be an array of shape {_shape_text(shape)} (rows differ in length)") \
+            from None
+    if a.size == 0 and -1 in shape:
+        return np.zeros([0 if n == -1 else n for n in shape], dtype=np.float64)
+    if a.dtype.kind not in "iuf":
+        raise _Malformed(f"{where} must hold numbers only")
+    if a.ndim != len(shape) or any(n != -1 and n != m for n, m in zip(shape, a.shape)):
+        raise _Malformed(f"{where} must be an array of shape {_shape_text(shape)}, "
+                         f"not {_shape_text(a.shape)}")
+    a = a.astype(np.float64)
+    if not np.isfinite(a).all():
+        raise _Malformed(f"{where} holds non-finite numbers")
+    return a
+
+
+def _shape_text(shape) -> str:
+    return "(" + ", ".join("n" if n == -1 else str(n) for n in shape) + ")"
+
+
 @dataclass(frozen=True, eq=False)
 class Scope:
     """Oriented bounding box of a shape (thesis: corner P, axes X, Y, Z, size S).
@@ -161,8 +263,12 @@ class Scope:
         return {"origin": self.origin.tolist(), "axes": self.axes.tolist(), "size": self.size.tolist()}
 
     @classmethod
-    def from_dict(cls, d: Mapping) -> "Scope":
-        return cls(d["origin"], d["axes"], d["size"])
+    def from_dict(cls, d: Mapping, where: str = "scope") -> "Scope":
+        """Read :meth:`to_dict` output; ``ValueError`` naming ``where`` when it is malformed."""
+        d = _obj(d, where)
+        return cls(_numbers(_get(d, "origin", where), f"{where}.origin", (3,)),
+                   _numbers(_get(d, "axes", where), f"{where}.axes", (3, 3)),
+                   _numbers(_get(d, "size", where), f"{where}.size", (3,)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -288,8 +394,25 @@ class Polyhedron:
         return {"vertices": self.vertices.tolist(), "faces": [list(f) for f in self.faces]}
 
     @classmethod
-    def from_dict(cls, d: Mapping) -> "Polyhedron":
-        return cls(np.asarray(d["vertices"], dtype=np.float64).reshape(-1, 3), d["faces"])
+    def from_dict(cls, d: Mapping, where: str = "geometry") -> "Polyhedron":
+        """Read :meth:`to_dict` output; ``ValueError`` naming ``where`` when it is malformed
+        (vertices not (n, 3) finite numbers, faces not polygons of at least 3 valid indices)."""
+        d = _obj(d, where)
+        v = _numbers(_get(d, "vertices", where), f"{where}.vertices", (-1, 3))
+        faces = []
+        for k, face in enumerate(_array(_get(d, "faces", where), f"{where}.faces")):
+            w = f"{where}.faces[{k}]"
+            idx = _array(face, w)
+            if len(idx) < 3:
+                raise _Malformed(f"{w} has {len(idx)} vertices; a face needs at least 3")
+            if any(isinstance(i, bool) or not isinstance(i, (int, np.integer)) for i in idx):
+                raise _Malformed(f"{w} must hold vertex indices (whole numbers)")
+            lo, hi = min(idx), max(idx)
+            if lo < 0 or hi >= len(v):
+                bad = lo if lo < 0 else hi
+                raise _Malformed(f"{w} has vertex index {bad}, out of range for {len(v)} vertices")
+            faces.append(idx)
+        return cls(v, faces)
 
 
 def _triangulate_face(vertices: np.ndarray, face: Sequence[int]) -> list[tuple[int, int, int]]:
@@ -445,22 +568,38 @@ class Shape:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping) -> "Shape":
+    def from_dict(cls, d: Mapping, where: str = "shape") -> "Shape":
+        """Read :meth:`to_dict` output; ``ValueError`` naming ``where`` when it is malformed."""
+        d = _obj(d, where)
+        sid = _text(_get(d, "id", where), f"{where}.id")
+        where = f"{where} ({sid!r})"
+        kind = _text(_get(d, "type", where), f"{where}.type")
+        try:
+            kind = ShapeType.parse(kind)
+        except ValueError as e:
+            raise _Malformed(f"{where}.type: {e}") from None
+        scope = d.get("scope")
+        grid = d.get("grid")
+        support = _obj(d.get("support", {}), f"{where}.support")
         return cls(
-            id=str(d["id"]),
-            type=d["type"],
-            geometry=Polyhedron.from_dict(d["geometry"]),
-            scope=Scope.from_dict(d["scope"]) if d.get("scope") else None,
-            storey=int(d.get("storey", 0)),
-            name=d.get("name", ""),
-            terminal=bool(d.get("terminal", False)),
-            active=bool(d.get("active", True)),
-            parent=d.get("parent"),
-            children=tuple(d.get("children", ())),
-            grid=None if d.get("grid") is None else tuple(d["grid"]),
-            support=d.get("support", {}),
-            attributes=d.get("attributes", {}),
-            log=tuple(d.get("log", ())),
+            id=sid,
+            type=kind,
+            geometry=Polyhedron.from_dict(_get(d, "geometry", where), f"{where}.geometry"),
+            scope=Scope.from_dict(scope, f"{where}.scope") if scope else None,
+            storey=_integer(d.get("storey", 0), f"{where}.storey"),
+            name=_text(d.get("name", ""), f"{where}.name", optional=True) or "",
+            terminal=_flag(d.get("terminal", False), f"{where}.terminal"),
+            active=_flag(d.get("active", True), f"{where}.active"),
+            parent=_text(d.get("parent"), f"{where}.parent", optional=True),
+            children=tuple(_text(c, f"{where}.children[{i}]")
+                           for i, c in enumerate(_array(d.get("children", []), f"{where}.children"))),
+            grid=None if grid is None else tuple(_integer(g, f"{where}.grid[{i}]")
+                                                 for i, g in enumerate(_array(grid, f"{where}.grid"))),
+            support={_text(k, f"{where}.support key"): _number(v, f"{where}.support[{k!r}]", finite=False)
+                     for k, v in support.items()},
+            attributes=_obj(d.get("attributes", {}), f"{where}.attributes"),
+            log=tuple(_text(e, f"{where}.log[{i}]")
+                      for i, e in enumerate(_array(d.get("log", []), f"{where}.log"))),
         )
 
 
@@ -487,9 +626,15 @@ class Storey:
                 "ceiling_z": self.ceiling_z, "elevation": self.elevation}
 
     @classmethod
-    def from_dict(cls, d: Mapping) -> "Storey":
-        return cls(int(d["index"]), float(d["floor_z"]), float(d["ceiling_z"]), d.get("name", ""),
-                   None if d.get("elevation") is None else float(d["elevation"]))
+    def from_dict(cls, d: Mapping, where: str = "storey") -> "Storey":
+        """Read :meth:`to_dict` output; ``ValueError`` naming ``where`` when it is malformed."""
+        d = _obj(d, where)
+        elev = d.get("elevation")
+        return cls(_integer(_get(d, "index", where), f"{where}.index"),
+                   _number(_get(d, "floor_z", where), f"{where}.floor_z"),
+                   _number(_get(d, "ceiling_z", where), f"{where}.ceiling_z"),
+                   _text(d.get("name", ""), f"{where}.name", optional=True) or "",
+                   None if elev is None else _number(elev, f"{where}.elevation"))
 
 
 RELATION_KINDS = ("adjacency", "connectivity")
@@ -570,9 +715,19 @@ class Provenance:
                 "source": self.source, "software": self.software}
 
     @classmethod
-    def from_dict(cls, d: Mapping) -> "Provenance":
-        return cls(d.get("method", ""), d.get("parameters", {}), d.get("seed"), d.get("timings", {}),
-                   d.get("trace", {}), d.get("source", ""), d.get("software", ""))
+    def from_dict(cls, d: Mapping, where: str = "provenance") -> "Provenance":
+        """Read :meth:`to_dict` output; ``ValueError`` naming ``where`` when it is malformed."""
+        d = _obj(d, where)
+        seed = d.get("seed")
+        timings = _obj(d.get("timings", {}), f"{where}.timings")
+        return cls(_text(d.get("method", ""), f"{where}.method", optional=True) or "",
+                   _obj(d.get("parameters", {}), f"{where}.parameters"),
+                   None if seed is None else _integer(seed, f"{where}.seed"),
+                   {_text(k, f"{where}.timings key"): _number(v, f"{where}.timings[{k!r}]", finite=False)
+                    for k, v in timings.items()},
+                   _obj(d.get("trace", {}) or {}, f"{where}.trace"),
+                   _text(d.get("source", ""), f"{where}.source", optional=True) or "",
+                   _text(d.get("software", ""), f"{where}.software", optional=True) or "")
 
 
 @dataclass(frozen=True, eq=False)
@@ -759,24 +914,56 @@ class BuildingModel:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping, path: Optional[str] = None) -> "BuildingModel":
+    def from_dict(cls, d: Mapping, path: Optional[str | os.PathLike] = None) -> "BuildingModel":
+        """Read :meth:`to_dict` output.
+
+        Raises
+        ------
+        FormatError (naming ``path``) — ``d`` is not a model: not an object, no or another
+        ``schema``, a newer ``schema_version``, a missing key, a value of the wrong type,
+        geometry that is not a polyhedron (non-finite vertices, face indices out of range),
+        duplicate shape ids.
+        """
+        if not isinstance(d, Mapping):
+            raise FormatError(f"not a building-model JSON: the top level is {_json_kind(d)}, not an object "
+                              "with 'schema': 'indoor-building-model'", path)
         if d.get("schema") != "indoor-building-model":
             raise FormatError("not a building-model JSON (no 'schema': 'indoor-building-model')", path)
         v = d.get("schema_version")
-        if not isinstance(v, int) or v > SCHEMA_VERSION:
-            raise FormatError(f"unsupported schema version {v!r} (this build reads up to {SCHEMA_VERSION})", path)
+        if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= SCHEMA_VERSION:
+            raise FormatError(f"unsupported schema version {v!r} (this build reads up to {SCHEMA_VERSION})",
+                              path)
         try:
-            return cls(
-                shapes=tuple(Shape.from_dict(s) for s in d.get("shapes", [])),
-                storeys=tuple(Storey.from_dict(s) for s in d.get("storeys", [])),
-                relations=tuple(Relation(r["kind"], r["a"], r["b"], r.get("via")) for r in d.get("relations", [])),
-                transform=d.get("transform", np.eye(4).tolist()),
-                offset=d.get("offset", [0, 0, 0]),
-                provenance=Provenance.from_dict(d.get("provenance", {})),
-                name=d.get("name", ""),
-            )
-        except (KeyError, TypeError, ValueError) as e:
-            raise FormatError(f"malformed building-model JSON: {e}", path) from None
+            return cls._from_checked_dict(d)
+        except (KeyError, TypeError, ValueError, IndexError) as e:
+            raise FormatError(f"malformed building-model JSON: {_error_text(e)}", path) from None
+
+    @classmethod
+    def _from_checked_dict(cls, d: Mapping) -> "BuildingModel":
+        shapes = [Shape.from_dict(s, f"shapes[{i}]")
+                  for i, s in enumerate(_array(d.get("shapes", []), "shapes"))]
+        storeys = [Storey.from_dict(s, f"storeys[{i}]")
+                   for i, s in enumerate(_array(d.get("storeys", []), "storeys"))]
+        relations = []
+        for i, r in enumerate(_array(d.get("relations", []), "relations")):
+            w = f"relations[{i}]"
+            r = _obj(r, w)
+            kind = _text(_get(r, "kind", w), f"{w}.kind")
+            if kind not in RELATION_KINDS:
+                raise _Malformed(f"{w}.kind is {kind!r}; expected one of {list(RELATION_KINDS)}")
+            a, b = _text(_get(r, "a", w), f"{w}.a"), _text(_get(r, "b", w), f"{w}.b")
+            relations.append(Relation(kind, a, b, _text(r.get("via"), f"{w}.via", optional=True)))
+        transform = d.get("transform")
+        offset = d.get("offset")
+        return cls(
+            shapes=tuple(shapes),
+            storeys=tuple(storeys),
+            relations=tuple(relations),
+            transform=np.eye(4) if transform is None else _numbers(transform, "transform", (4, 4)),
+            offset=np.zeros(3) if offset is None else _numbers(offset, "offset", (3,)),
+            provenance=Provenance.from_dict(d.get("provenance") or {}),
+            name=_text(d.get("name", ""), "name", optional=True) or "",
+        )
 
     def to_json(self, path: Optional[str | os.PathLike] = None, indent: Optional[int] = None) -> str:
         """Serialise; when ``path`` is given, write atomically (temporary name, then move)."""
@@ -789,18 +976,32 @@ class BuildingModel:
 
     @classmethod
     def from_json(cls, source: str | os.PathLike) -> "BuildingModel":
-        """Read a model from a JSON file path (or a JSON string starting with '{')."""
+        """Read a model from a JSON file path (or a JSON string starting with '{').
+
+        Raises
+        ------
+        InputError — the file is missing, a folder or unreadable.
+        FormatError (naming the file) — empty, not UTF-8, not JSON, truncated JSON, or JSON
+        that is not a model (see :meth:`from_dict`).
+        """
         if isinstance(source, str) and source.lstrip().startswith("{"):
-            return cls.from_dict(json.loads(source))
+            return cls.from_dict(_parse_json(source, None))
         path = os.fspath(source)
         if not os.path.exists(path):
             raise InputError("file not found", path)
+        if os.path.isdir(path):
+            raise InputError("is a folder, not a file", path)
         try:
-            with open(path, encoding="utf-8") as f:
-                d = json.load(f)
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-            raise FormatError(f"not readable as JSON: {e}", path) from None
-        return cls.from_dict(d, path)
+            with open(path, "rb") as f:
+                data = f.read()
+        except OSError as e:
+            raise InputError(f"cannot read the file: {e.strerror or e}", path) from None
+        try:
+            text = data.decode("utf-8-sig")
+        except UnicodeDecodeError as e:
+            raise FormatError(f"not UTF-8 text (byte 0x{data[e.start]:02x} at offset {e.start}); "
+                              "a model JSON is UTF-8", path) from None
+        return cls.from_dict(_parse_json(text, path), path)
 
     def summary(self) -> dict:
         """JSON-ready counts: storeys, spaces, walls, doors, relations."""
@@ -814,6 +1015,29 @@ class BuildingModel:
             "adjacency": len(self.relations_of("adjacency")),
             "connectivity": len(self.relations_of("connectivity")),
         }
+
+
+def _parse_json(text: str, path) -> Any:
+    """``json.loads(text)``; FormatError naming ``path`` (and the line) when it is not JSON."""
+    if not text.strip():
+        raise FormatError("the file is empty" if path is not None else "empty JSON text", path)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as e:
+        where = f"line {e.lineno} column {e.colno}"
+        if e.pos >= len(text.rstrip()) or e.msg.startswith("Unterminated string"):
+            raise FormatError(f"truncated JSON: the text ends inside a value ({e.msg} at {where})", path) \
+                from None
+        raise FormatError(f"not readable as JSON: {e.msg} at {where}", path) from None
+    except RecursionError:
+        raise FormatError("not readable as JSON: nested too deeply", path) from None
+
+
+def _error_text(e: BaseException) -> str:
+    """The message of a parsing error (a KeyError's is the bare key)."""
+    if isinstance(e, KeyError):
+        return f"missing key {e.args[0]!r}" if e.args else "missing key"
+    return str(e) or e.__class__.__name__
 
 
 def _jsonable(x):

@@ -82,13 +82,16 @@ def load_model(path: str | os.PathLike) -> BuildingModel:
     Raises
     ------
     InputError
-        The file does not exist or its type is not one of ``MODEL_EXTENSIONS``.
+        The file does not exist, is a folder, or its type is not one of ``MODEL_EXTENSIONS``.
     FormatError
-        The file cannot be parsed.
+        The file cannot be parsed: empty, truncated (an IFC without ``END-ISO-10303-21;``, a
+        JSON cut midway), not of its format, or JSON that is not a model.
     """
     path = os.fspath(path)
     if not os.path.exists(path):
         raise InputError("file not found", path)
+    if os.path.isdir(path):
+        raise InputError("is a folder, not a file", path)
     ext = os.path.splitext(path)[1].lower()
     if ext == ".json":
         return BuildingModel.from_json(path)

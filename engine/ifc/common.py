@@ -1,8 +1,12 @@
 """Names and small helpers shared by the IFC writer and reader."""
 from __future__ import annotations
 
+import datetime
 import json
+import logging
 import os
+import uuid
+from typing import Optional
 
 import numpy as np
 
@@ -10,8 +14,11 @@ from ..errors import InputError, MissingDependencyError
 
 __all__ = [
     "PSET_PROVENANCE", "PSET_SHAPE", "PSET_SUPPORT", "PSET_STOREY", "WRITABLE_SCHEMAS",
-    "READABLE_SCHEMAS", "require_ifcopenshell", "dumps", "loads",
+    "READABLE_SCHEMAS", "require_ifcopenshell", "dumps", "loads", "safe_text", "global_id",
+    "source_date_epoch", "GLOBAL_ID_NAMESPACE",
 ]
+
+log = logging.getLogger(__name__)
 
 PSET_PROVENANCE = "Indoor_Provenance"
 """Property set on the IfcProject: method, parameters, seed, timings, frame (transform, offset)."""
@@ -24,6 +31,9 @@ PSET_STOREY = "Indoor_Storey"
 
 WRITABLE_SCHEMAS = ("IFC4", "IFC4X3")
 READABLE_SCHEMAS = ("IFC2X3", "IFC4", "IFC4X3")
+
+GLOBAL_ID_NAMESPACE = uuid.UUID("5f0c3b1e-8d2a-5e47-9a1c-6b7d2e4f8a90")
+"""UUID namespace of the GlobalIds :func:`global_id` derives (fixed: changing it changes every id)."""
 
 
 def require_ifcopenshell(purpose: str):
@@ -66,3 +76,59 @@ def rigid_part(transform: np.ndarray, tol: float) -> bool:
     """True when the 3×3 part of ``transform`` (4, 4) is a rotation (orthonormal, det +1)."""
     r = np.asarray(transform, dtype=np.float64)[:3, :3]
     return bool(np.allclose(r.T @ r, np.eye(3), atol=tol) and np.linalg.det(r) > 0)
+
+
+def safe_text(text) -> str:
+    """``text`` as a string IFC can hold: characters that are not valid Unicode (the surrogate
+    escapes Python gives undecodable bytes of a file name, ``b"\\xff"`` -> ``"\\udcff"``)
+    become backslash escapes (``"\\xff"``); valid text is returned unchanged."""
+    text = str(text)
+    try:
+        text.encode("utf-8")
+        return text
+    except UnicodeEncodeError:
+        pass
+    try:  # surrogate escapes of undecodable bytes -> the bytes, shown as \xNN
+        return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # other lone surrogates -> \udNNN
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
+def global_id(seed, model_name: str, key) -> str:
+    """The IFC GlobalId (22 characters) of the entity ``key`` of a model.
+
+    A name-based UUID (version 5, namespace :data:`GLOBAL_ID_NAMESPACE`) of the model's seed,
+    its name and the entity's key, compressed to IFC's base-64 form. ``key`` is a tuple of
+    strings, numbers, None and nested tuples naming the entity by what it is (a shape id, a
+    role such as ``"opening"``, the ids a relationship joins), so the same model written twice
+    gives the same GlobalIds and elements of two runs can be matched by GlobalId.
+    """
+    import ifcopenshell.guid
+
+    seed = None if seed is None else int(seed)
+    name = json.dumps([seed, str(model_name), key], ensure_ascii=True, separators=(",", ":"))
+    return ifcopenshell.guid.compress(uuid.uuid5(GLOBAL_ID_NAMESPACE, name).hex)
+
+
+def source_date_epoch() -> Optional[int]:
+    """The ``SOURCE_DATE_EPOCH`` environment variable (seconds since 1970, the
+    reproducible-builds convention) or None when it is not set; a malformed value is
+    ignored with a warning."""
+    v = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    if not v:
+        return None
+    try:
+        t = int(v)
+    except ValueError:
+        t = -1
+    if t < 0:
+        log.warning("SOURCE_DATE_EPOCH=%r is not a whole number of seconds since 1970: ignored", v)
+        return None
+    return t
+
+
+def iso_timestamp(epoch: Optional[int]) -> str:
+    """ISO 8601 time stamp of ``epoch`` (UTC) or of now (local time zone) when None."""
+    if epoch is None:
+        return datetime.datetime.now().astimezone().replace(microsecond=0).isoformat()
+    return datetime.datetime.fromtimestamp(epoch, datetime.timezone.utc).isoformat()

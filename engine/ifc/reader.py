@@ -95,7 +95,8 @@ def read_ifc(path: str | os.PathLike, *, params: Optional[IfcReadParams] = None,
     Raises
     ------
     InputError — missing file; the file has no IfcBuildingStorey.
-    FormatError — not an IFC-SPF file, an unsupported schema, or unreadable content.
+    FormatError — empty, not an IFC-SPF file, an unsupported schema, truncated (no
+    ``END-ISO-10303-21;`` at its end), or content the parser rejects (syntax errors).
     """
     params = params or IfcReadParams()
     p = Progress.wrap(progress, should_stop)
@@ -106,11 +107,27 @@ def read_ifc(path: str | os.PathLike, *, params: Optional[IfcReadParams] = None,
     return _Reader(f, path, params, p).run()
 
 
+_HEAD_BYTES = 8192
+"""Bytes read from the start of an IFC file for its header (magic and FILE_SCHEMA)."""
+_TAIL_BYTES = 4096
+"""Bytes read from the end of an IFC file for its ``END-ISO-10303-21;`` terminator."""
+_END_RE = re.compile(rb"END-ISO-10303-21\s*;")
+
+
 def _open(path: str):
+    """Check the header and the end of the file, then parse it; FormatError on bad content."""
     import ifcopenshell
 
-    with open(path, "rb") as fh:
-        head = fh.read(8192)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(_HEAD_BYTES)
+            size = fh.seek(0, os.SEEK_END)
+            fh.seek(max(size - _TAIL_BYTES, 0))
+            tail = fh.read()
+    except OSError as e:
+        raise InputError(f"cannot read the file: {e.strerror or e}", path) from None
+    if not head.strip():
+        raise FormatError("the file is empty", path)
     text = head.decode("latin-1", errors="replace")
     if "ISO-10303-21" not in text:
         if head[:2] == b"PK":
@@ -122,11 +139,53 @@ def _open(path: str):
     schema = m.group(1).strip().upper()
     if not any(schema == s or schema.startswith(s + "_") for s in READABLE_SCHEMAS):
         raise FormatError(f"unsupported IFC schema {schema!r}; readable: {list(READABLE_SCHEMAS)}", path)
+    if not _END_RE.search(tail):
+        raise FormatError(f"truncated: no END-ISO-10303-21 at the end of the file ({size} bytes)", path)
+    wrapper = ifcopenshell.ifcopenshell_wrapper
+    wrapper.get_log()  # drop messages of earlier work: what follows is about this file
     try:
-        f = ifcopenshell.open(path)
+        if _encodable(path):
+            f = ifcopenshell.open(path)
+        else:  # a name with undecodable bytes: ifcopenshell takes UTF-8 names only
+            with open(path, "rb") as fh:
+                f = ifcopenshell.file.from_string(fh.read().decode("utf-8", errors="replace"))
     except Exception as e:  # ifcopenshell raises plain errors on bad content
         raise FormatError(f"cannot parse the IFC file: {e}", path) from None
+    errors = _parse_errors(wrapper.get_log())
+    if errors:
+        more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+        raise FormatError(f"syntax error in the IFC file: {errors[0]}{more}", path)
     return f
+
+
+def _encodable(path: str) -> bool:
+    try:
+        path.encode("utf-8")
+        return True
+    except UnicodeEncodeError:
+        return False
+
+
+def _parse_errors(log_text: str) -> list:
+    """Messages of the error-level entries of ifcopenshell's log (text or JSON format): the
+    parser logs bad entities and dangling references there and goes on without them."""
+    import json
+
+    out = []
+    for line in (log_text or "").splitlines():
+        line = line.strip()
+        if line.startswith("{"):
+            try:
+                rec = json.loads(line)
+            except ValueError:
+                continue
+            if str(rec.get("level", "")).lower() == "error":
+                out.append(str(rec.get("message", "")))
+        else:
+            m = re.match(r"\[error\]\s*(?:\[[^\]]*\]\s*)?(.*)", line, flags=re.I)
+            if m:
+                out.append(m.group(1))
+    return out
 
 
 # --------------------------------------------------------------------------- reader

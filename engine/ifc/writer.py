@@ -22,9 +22,20 @@ Geometry is written in the model's original frame: the site placement carries
 ``model.offset`` and the rigid ``model.transform`` (a non-rigid transform is applied to the
 vertices instead), so world coordinates in the file are ``p_file = T p_model + offset``.
 Every placement below the site is a pure translation.
+
+The output is reproducible: every GlobalId is derived from the model's seed, its name and
+the entity's identity (:func:`engine.ifc.common.global_id`: a shape id, a role such as
+``"opening"`` or ``"pset"``, the ids a relationship joins), the relationships are created
+here in a fixed order (``ifcopenshell.api`` orders products through Python sets of entity
+instances, whose hashes depend on everything the process made before), and the
+``SOURCE_DATE_EPOCH`` environment variable fixes the time stamps. The same model therefore
+gives the same file byte for byte, apart from the header time stamp when that variable is
+not set. Text from the model (names, file names) with undecodable bytes is written with
+backslash escapes.
 """
 from __future__ import annotations
 
+import errno
 import logging
 import os
 from dataclasses import dataclass
@@ -32,12 +43,13 @@ from typing import Optional
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, OutputError
 from ..fileutil import atomic_path
 from ..model import BuildingModel, Polyhedron, Shape, ShapeType
 from ..progress import Progress
 from .common import (PSET_PROVENANCE, PSET_SHAPE, PSET_STOREY, PSET_SUPPORT, WRITABLE_SCHEMAS, dumps,
-                     require_ifcopenshell, rigid_part)
+                     global_id, iso_timestamp, require_ifcopenshell, rigid_part, safe_text,
+                     source_date_epoch)
 
 __all__ = ["IfcWriteParams", "write_ifc", "build_ifc", "TYPE_COLOURS"]
 
@@ -110,19 +122,39 @@ def write_ifc(model: BuildingModel, path: str | os.PathLike, *, schema: str = "I
     Raises
     ------
     InputError — unsupported schema, or a model with nothing to write.
+    OutputError — the file cannot be written (full disk, read-only folder, ...); nothing is
+    left in the folder and an existing file at ``path`` is unchanged.
     """
-    path = os.fspath(path)
+    path = os.fsdecode(os.fspath(path))
     f = build_ifc(model, schema=schema, params=params, progress=progress, should_stop=should_stop,
                   path=path)
-    with atomic_path(path, suffix=".ifc") as tmp:
-        f.write(tmp)
-    log.info("wrote %s (%d entities)", path, len(list(f)))
+    # serialised here and written by Python (not ``f.write``): an OS error keeps its cause
+    # (ifcopenshell reports "An unknown error occurred") and names with undecodable bytes work
+    data = f.to_string().encode("utf-8")
+    try:
+        with atomic_path(path, suffix=".ifc") as tmp:
+            with open(tmp, "wb") as fh:
+                fh.write(data)
+    except OSError as e:
+        if isinstance(e, OutputError):
+            raise
+        why = e.strerror or str(e)
+        if e.errno in (errno.EEXIST, errno.ENOTDIR):
+            why = f"a part of the folder path is a file ({why})"
+        elif e.errno == errno.EISDIR:
+            why = "it is a folder"
+        raise OutputError(f"cannot write the IFC file: {why}", path) from e
+    log.info("wrote %s (%d entities, %d bytes)", path, len(list(f)), len(data))
     return path
 
 
 def build_ifc(model: BuildingModel, *, schema: str = "IFC4", params: Optional[IfcWriteParams] = None,
               progress=None, should_stop=None, path: Optional[str] = None):
-    """Build the ``ifcopenshell.file`` that :func:`write_ifc` writes (nothing is written)."""
+    """Build the ``ifcopenshell.file`` that :func:`write_ifc` writes (nothing is written).
+
+    ``path`` is the file it is meant for: errors name it and the header's FILE_NAME gives its
+    base name.
+    """
     require_ifcopenshell("writing IFC")
     schema = str(schema).upper()
     if schema not in WRITABLE_SCHEMAS:
@@ -134,7 +166,9 @@ def build_ifc(model: BuildingModel, *, schema: str = "IFC4", params: Optional[If
     if params.georeference not in ("placement", "map_conversion"):
         raise InputError(f"georeference must be 'placement' or 'map_conversion', not {params.georeference!r}",
                          path)
-    return _Writer(model, schema, params, p).run()
+    f = _Writer(model, schema, params, p).run()
+    f.header.file_name.name = safe_text(os.path.basename(os.fsdecode(path))) if path else ""
+    return f
 
 
 # --------------------------------------------------------------------------- writer
@@ -146,6 +180,7 @@ class _Writer:
         import ifcopenshell.api.context  # noqa: F401
         import ifcopenshell.api.feature  # noqa: F401
         import ifcopenshell.api.geometry  # noqa: F401
+        import ifcopenshell.api.owner  # noqa: F401
         import ifcopenshell.api.project  # noqa: F401
         import ifcopenshell.api.pset  # noqa: F401
         import ifcopenshell.api.root  # noqa: F401
@@ -166,6 +201,79 @@ class _Writer:
         self.contained = {}  # storey entity id -> list of products
         self.tables = {}  # id(Polyhedron) -> face normals and vertices (see _face_table)
         self.storey_list = list(model.storeys) or _default_storeys(model)
+        self.keys = {}  # ifc entity id -> GlobalId key (see _own)
+        self.owners = {}  # GlobalId key -> ifc entity id
+        self.seed = model.provenance.seed
+        self.epoch = source_date_epoch()
+
+    # ------------------------------------------------------------------ identity
+    def _own(self, entity, key: tuple):
+        """Give ``entity`` (an IfcRoot) the GlobalId of ``key`` (see :func:`global_id`).
+
+        Keys are unique in the file: two entities with one key is a bug of the writer.
+        """
+        eid = entity.id()
+        old = self.keys.get(eid)
+        if old is not None:
+            if old != key:
+                raise RuntimeError(f"IFC entity #{eid} got two GlobalId keys: {old!r} and {key!r}")
+            return entity
+        other = self.owners.get(key)
+        if other is not None and other != eid:
+            raise RuntimeError(f"IFC entities #{other} and #{eid} share the GlobalId key {key!r}")
+        self.keys[eid] = key
+        self.owners[key] = eid
+        entity.GlobalId = self._gid(key)
+        return entity
+
+    def _gid(self, key: tuple) -> str:
+        return global_id(self.seed, self.model.name, key)
+
+    def _key(self, entity) -> tuple:
+        return self.keys[entity.id()]
+
+    def _root(self, ifc_class: str, key: tuple, name=None, **kwargs):
+        """``api.root.create_entity`` with the GlobalId of ``key`` and a safe ``name``."""
+        e = self.api.root.create_entity(self.f, ifc_class=ifc_class,
+                                        name=None if name is None else safe_text(name), **kwargs)
+        return self._own(e, key)
+
+    def _history(self):
+        """The owner history ifcopenshell.api gives new entities (None unless an application,
+        e.g. Bonsai, has configured a user and an application)."""
+        return self.api.owner.create_owner_history(self.f)
+
+    def _aggregate(self, relating, products):
+        """IfcRelAggregates of ``products`` (in this order) under ``relating``."""
+        key = (self._key(relating), "aggregates")
+        rel = self.f.createIfcRelAggregates(self._gid(key), self._history(), None, None, relating,
+                                            list(products))
+        return self._own(rel, key)
+
+    def _contain(self, structure, products):
+        """IfcRelContainedInSpatialStructure of ``products`` (in this order) in ``structure``."""
+        key = (self._key(structure), "contains")
+        rel = self.f.createIfcRelContainedInSpatialStructure(self._gid(key), self._history(), None, None,
+                                                             list(products), structure)
+        return self._own(rel, key)
+
+    def _finish(self):
+        """Check that every IfcRoot has its GlobalId; fix the time stamps."""
+        f = self.f
+        gids = set()
+        for e in sorted(f.by_type("IfcRoot"), key=lambda e: e.id()):
+            if e.id() not in self.keys:
+                raise RuntimeError(f"IFC entity {e.is_a()} #{e.id()} has no GlobalId key "
+                                   "(a bug of the writer)")
+            gids.add(e.GlobalId)
+        if len(gids) != len(self.keys):
+            raise RuntimeError("two IFC entities share a GlobalId (a bug of the writer)")
+        f.header.file_name.time_stamp = iso_timestamp(self.epoch)
+        if self.epoch is not None:
+            for oh in f.by_type("IfcOwnerHistory"):
+                oh.CreationDate = self.epoch
+                if oh.LastModifiedDate is not None:
+                    oh.LastModifiedDate = self.epoch
 
     # ------------------------------------------------------------------ frame
     def _frame(self):
@@ -220,15 +328,26 @@ class _Writer:
         if not props:
             return
         for k, v in list(props.items()):
-            if isinstance(v, str) and len(v) > 255:
-                props[k] = self.f.createIfcText(v)
+            if isinstance(v, str):
+                v = props[k] = safe_text(v)
+                if len(v) > 255:
+                    props[k] = self.f.createIfcText(v)
         pset = self.api.pset.add_pset(self.f, product=product, name=name)
+        self._own_definition(product, pset, name)
         self.api.pset.edit_pset(self.f, pset=pset, properties=props)
+
+    def _own_definition(self, product, definition, name):
+        """GlobalIds of a property set or quantity set and of the relationship defining it."""
+        owner = self._key(product)
+        self._own(definition, (owner, "pset", name))
+        for rel in definition.DefinesOccurrence:
+            self._own(rel, (owner, "defines", name))
 
     def _qto(self, product, name, props):
         props = {k: float(v) for k, v in props.items() if v is not None and np.isfinite(v)}
         if props:
             q = self.api.pset.add_qto(self.f, product=product, name=name)
+            self._own_definition(product, q, name)
             self.api.pset.edit_qto(self.f, qto=q, properties=props)
 
     def _style(self, shape_type):
@@ -289,12 +408,13 @@ class _Writer:
         api, f, m, p = self.api, self.f, self.model, self.p
         self._frame()
         p(0.02, "project")
-        project = api.root.create_entity(f, ifc_class="IfcProject", name=m.name or "Indoor model")
+        project = self._root("IfcProject", ("project",), name=m.name or "Indoor model")
         length = api.unit.add_si_unit(f, unit_type="LENGTHUNIT")
         area = api.unit.add_si_unit(f, unit_type="AREAUNIT")
         volume = api.unit.add_si_unit(f, unit_type="VOLUMEUNIT")
         angle = api.unit.add_si_unit(f, unit_type="PLANEANGLEUNIT")
-        api.unit.assign_unit(f, units=[length, area, volume, angle])
+        # not api.unit.assign_unit: it orders the units through a set
+        project.UnitsInContext = f.createIfcUnitAssignment([length, area, volume, angle])
         model_ctx = api.context.add_context(f, context_type="Model")
         self.body = api.context.add_context(f, context_type="Model", context_identifier="Body",
                                             target_view="MODEL_VIEW", parent=model_ctx)
@@ -305,25 +425,26 @@ class _Writer:
         if self.params.georeference == "map_conversion":
             import ifcopenshell.api.georeference  # noqa: F401
 
-            api.georeference.add_georeferencing(f, ifc_class="IfcMapConversion", name=self.params.crs_name)
+            api.georeference.add_georeferencing(f, ifc_class="IfcMapConversion",
+                                                name=safe_text(self.params.crs_name))
             e, n, h = (float(c) for c in m.offset)
             api.georeference.edit_georeferencing(
                 f, coordinate_operation={"Eastings": e, "Northings": n, "OrthogonalHeight": h})
         self._provenance(project)
 
-        site = api.root.create_entity(f, ifc_class="IfcSite", name="Site")
+        site = self._root("IfcSite", ("site",), name="Site")
         sm = self.site_matrix
         site.ObjectPlacement = f.createIfcLocalPlacement(None, self._axis2(sm[:3, 3], sm[:3, 2], sm[:3, 0]))
         self.origin[site.id()] = np.zeros(3)
-        api.aggregate.assign_object(f, products=[site], relating_object=project)
-        building = api.root.create_entity(f, ifc_class="IfcBuilding", name=m.name or "Building")
+        self._aggregate(project, [site])
+        building = self._root("IfcBuilding", ("building",), name=m.name or "Building")
         self._placement(building, site, np.zeros(3))
-        api.aggregate.assign_object(f, products=[building], relating_object=site)
+        self._aggregate(site, [building])
         self.site, self.building = site, building
 
         self.storeys = []
         for i, st in enumerate(self.storey_list):
-            e = api.root.create_entity(f, ifc_class="IfcBuildingStorey", name=st.name or f"Storey {i}")
+            e = self._root("IfcBuildingStorey", ("storey", i), name=st.name or f"Storey {i}")
             e.Elevation = float(st.elevation if st.elevation is not None else self.storey_z[i])
             e.CompositionType = "ELEMENT"
             self._placement(e, building, (0.0, 0.0, self.storey_z[i]))
@@ -331,7 +452,7 @@ class _Writer:
                                         "CeilingZ": float(st.ceiling_z)})
             self.storeys.append(e)
         if self.storeys:
-            api.aggregate.assign_object(f, products=self.storeys, relating_object=building)
+            self._aggregate(building, self.storeys)
         p(0.1, "spaces")
         self._spaces()
         p.check()
@@ -340,11 +461,12 @@ class _Writer:
         p.check()
         p(0.6, "doors")
         self._doors()
-        for sid, products in self.contained.items():
-            api.spatial.assign_container(f, products=products, relating_structure=f.by_id(sid))
         p.check()
         p(0.7, "space boundaries")
         self._boundaries()
+        for sid, products in self.contained.items():
+            self._contain(f.by_id(sid), products)
+        self._finish()
         p(1.0, "IFC built")
         return f
 
@@ -399,7 +521,7 @@ class _Writer:
 
     # ------------------------------------------------------------------ spaces
     def _spaces(self):
-        api, f, m = self.api, self.f, self.model
+        f, m = self.f, self.model
         spaces = [s for s in m.shapes
                   if s.type in (ShapeType.INTERIOR, ShapeType.EXTERIOR) and self._writable(s)]
         # parents before their parts
@@ -414,13 +536,12 @@ class _Writer:
         for s in spaces:
             g = self.geom[s.id]
             if s.type == ShapeType.INTERIOR:
-                e = api.root.create_entity(f, ifc_class="IfcSpace", predefined_type="SPACE",
-                                           name=s.name or s.id)
-                e.LongName = s.name or None
+                e = self._root("IfcSpace", ("shape", s.id), predefined_type="SPACE", name=s.name or s.id)
+                e.LongName = safe_text(s.name) if s.name else None
                 e.CompositionType = "ELEMENT" if s.active else "PARTIAL"
             else:
-                e = api.root.create_entity(f, ifc_class="IfcExternalSpatialElement",
-                                           predefined_type="EXTERNAL", name=s.name or s.id)
+                e = self._root("IfcExternalSpatialElement", ("shape", s.id), predefined_type="EXTERNAL",
+                               name=s.name or s.id)
             parent = self.ent.get(s.parent) if s.parent is not None else None
             if parent is None or not parent.is_a("IfcSpace"):
                 parent = self._container_of(s)
@@ -446,11 +567,11 @@ class _Writer:
                     "Height": zmax - zmin, "GrossFloorArea": fa, "NetFloorArea": fa, "GrossPerimeter": per,
                     "GrossVolume": vol, "NetVolume": vol})
         for pid, products in agg.items():
-            api.aggregate.assign_object(f, products=products, relating_object=f.by_id(pid))
+            self._aggregate(f.by_id(pid), products)
 
     # ------------------------------------------------------------------ walls, slabs
     def _elements(self):
-        api, f, m = self.api, self.f, self.model
+        f, m = self.f, self.model
         doors_of = {}
         for d in m.shapes:
             if d.type == ShapeType.DOOR and d.parent is not None:
@@ -460,11 +581,10 @@ class _Writer:
                 continue
             g = self.geom[s.id]
             if s.type == ShapeType.WALL:
-                e = api.root.create_entity(f, ifc_class="IfcWall", predefined_type="SOLIDWALL",
-                                           name=s.name or s.id)
+                e = self._root("IfcWall", ("shape", s.id), predefined_type="SOLIDWALL", name=s.name or s.id)
             else:
-                e = api.root.create_entity(f, ifc_class="IfcSlab", predefined_type=self._slab_type(s, g),
-                                           name=s.name or s.id)
+                e = self._root("IfcSlab", ("shape", s.id), predefined_type=self._slab_type(s, g),
+                               name=s.name or s.id)
             container = self._container_of(s)
             origin = self._origin_of(g)
             self._placement(e, container, origin)
@@ -516,12 +636,12 @@ class _Writer:
 
     # ------------------------------------------------------------------ doors
     def _doors(self):
-        api, f, m = self.api, self.f, self.model
+        f, m = self.f, self.model
         for d in m.shapes:
             if d.type != ShapeType.DOOR or not self._writable(d):
                 continue
             g = self.geom[d.id]
-            e = api.root.create_entity(f, ifc_class="IfcDoor", predefined_type="DOOR", name=d.name or d.id)
+            e = self._root("IfcDoor", ("shape", d.id), predefined_type="DOOR", name=d.name or d.id)
             w, h = _door_wh(d)
             e.OverallWidth, e.OverallHeight = float(w), float(h)
             container = self._container_of(d)
@@ -536,19 +656,23 @@ class _Writer:
             if wall is None or not wall.is_a("IfcWall"):
                 log.warning("door %s has no wall to void; written without an opening", d.id)
                 continue
-            op = api.root.create_entity(f, ifc_class="IfcOpeningElement", predefined_type="OPENING",
-                                        name=f"Opening {d.name or d.id}")
+            op = self._root("IfcOpeningElement", ("opening", d.id), predefined_type="OPENING",
+                            name=f"Opening {d.name or d.id}")
             og = _opening_geometry(d, self.geom[d.id], self.geom[d.parent], self.params.opening_margin)
             self._placement(op, wall, origin)
             item, rtype = self._solid(og, origin)
             op.Representation = f.createIfcProductDefinitionShape(
                 None, None, [f.createIfcShapeRepresentation(self.body, "Body", rtype, [item])])
-            api.feature.add_feature(f, feature=op, element=wall)
-            api.feature.add_filling(f, opening=op, element=e)
+            # not api.feature.add_feature: it rebuilds the opening's placement through the api
+            voids, fills = (self._key(op), "voids"), (self._key(op), "fills")
+            self._own(f.createIfcRelVoidsElement(self._gid(voids), self._history(), None, None, wall, op),
+                      voids)
+            self._own(f.createIfcRelFillsElement(self._gid(fills), self._history(), None, None, op, e),
+                      fills)
 
     # ------------------------------------------------------------------ boundaries
     def _boundaries(self):
-        api, f, m, prm = self.api, self.f, self.model, self.params
+        m, prm = self.model, self.params
         done = set()
         n = 0
         for r in m.relations:
@@ -565,10 +689,10 @@ class _Writer:
                 key = ("virtual", r.a, r.b)
                 if key not in self.ent:
                     label = f"Open boundary {m[r.a].name or r.a} | {m[r.b].name or r.b}"
-                    ve = api.root.create_entity(f, ifc_class="IfcVirtualElement", name=label)
+                    ve = self._root("IfcVirtualElement", ("virtual", r.a, r.b), name=label)
                     container = self._container_of(m[r.a])
                     self._placement(ve, container, self.origin[sa.id()])
-                    api.spatial.assign_container(f, products=[ve], relating_structure=container)
+                    self.contained.setdefault(container.id(), []).append(ve)
                     self._pset(ve, PSET_SHAPE, {"ShapeId": f"open:{r.a}|{r.b}", "ShapeType": "virtual",
                                                 "RelationKinds": r.kind})
                     self.ent[key] = ve
@@ -582,8 +706,8 @@ class _Writer:
             if (r.a, r.b, elem.id()) in done:
                 continue
             done.add((r.a, r.b, elem.id()))
-            ba = self._boundary(r.a, sa, elem, elem_shape, phys, io, "2a")
-            bb = self._boundary(r.b, sb, elem, elem_shape, phys, io, "2a")
+            ba = self._boundary(r.a, sa, elem, elem_shape, phys, io, "2a", partner=r.b)
+            bb = self._boundary(r.b, sb, elem, elem_shape, phys, io, "2a", partner=r.a)
             ba.CorrespondingBoundary, bb.CorrespondingBoundary = bb, ba
             done.add((r.a, elem.id()))
             done.add((r.b, elem.id()))
@@ -611,9 +735,11 @@ class _Writer:
                 self.api.pset.edit_pset(self.f, pset=pd, properties=props)
                 return
 
-    def _boundary(self, space_id, space, elem, elem_shape, phys, io, level, common=None):
+    def _boundary(self, space_id, space, elem, elem_shape, phys, io, level, common=None, partner=None):
+        """The boundary of space ``space_id`` by ``elem``; ``partner`` is the space on the other
+        side for a relation's boundary (its key tells the two boundaries of one wall apart)."""
         f = self.f
-        b = self.api.root.create_entity(f, ifc_class="IfcRelSpaceBoundary2ndLevel")
+        b = self._root("IfcRelSpaceBoundary2ndLevel", ("boundary", space_id, self._key(elem), partner))
         b.Name, b.Description = "2ndLevel", level
         self.api.boundary.edit_attributes(f, entity=b, relating_space=space, related_building_element=elem,
                                           physical_or_virtual=phys, internal_or_external=io)
