@@ -1,6 +1,10 @@
 """Change detection between a model and a newer scan (SPEC.md §5).
 
-1. Register the scan to the model (:mod:`.registration`).
+1. Register the scan to the model (:mod:`.registration`) and check the registration: when
+   too few scan points lie on the model, or too few of those on walls on its walls, the
+   scan is *unregistered* and the result claims no change (every point ``UNCLASSIFIED``,
+   no redundant face, no candidate element) unless ``ChangeParams.force`` is set: a
+   failed registration reads as "everything is new, every face is redundant".
 2. Classify each scan point: *existing* (0) when some model surface has ``|πᵀp| ≤ r``, its
    outline contains the projection of ``p`` and — when the scan has normals, which are
    estimated when missing — the point's normal agrees with the surface within an angle;
@@ -30,10 +34,10 @@ from ..progress import Progress
 from ..evaluation.coverage import PatchSupport, alpha_area, patch_support
 from ..evaluation.patches import patches_from_model
 from ..evaluation.loading import frame_transform
-from .registration import RegistrationParams, RegistrationResult, register
+from .registration import REGISTERED, UNREGISTERED, RegistrationParams, RegistrationResult, register
 
-__all__ = ["ChangeParams", "ChangeResult", "detect_changes", "cluster_points", "distance_threshold", "EXISTING",
-           "NEW"]
+__all__ = ["ChangeParams", "ChangeResult", "detect_changes", "cluster_points", "distance_threshold",
+           "EXISTING", "NEW", "UNCLASSIFIED", "REGISTERED", "UNREGISTERED"]
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +47,8 @@ EXISTING = 0
 """Point type: lies on a model surface."""
 NEW = 1
 """Point type: on no model surface."""
+UNCLASSIFIED = 2
+"""Point type: not classified, because the scan could not be registered to the model."""
 
 
 @dataclass(frozen=True)
@@ -91,7 +97,12 @@ class ChangeParams:
     wall_end_tolerance: float = 0.15
     """A wall candidate must come this close to the floor and to the ceiling, metres."""
     registration: RegistrationParams = field(default_factory=RegistrationParams)
-    """How the scan is registered to the model."""
+    """How the scan is registered to the model and when the registration has failed
+    (``min_fitness``)."""
+    force: bool = False
+    """Classify the points, flag redundant faces and find new elements even when the
+    registration failed (the result stays marked unregistered). Without it an
+    unregistered result claims no change."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,7 +116,8 @@ class ChangeResult:
     registration : RegistrationResult
         ``registration.transform`` maps scan coordinates into the model frame.
     point_type : (n,) uint8
-        0 existing, 1 new, per scan point.
+        0 existing, 1 new, per scan point; 2 (:data:`UNCLASSIFIED`) everywhere when the
+        registration failed and ``params.force`` is not set.
     distance : (n,) float64
         Distance to the closest model surface containing the point's projection (normal
         agreeing), metres; inf when none within ``search_distance``.
@@ -120,7 +132,7 @@ class ChangeResult:
     coverage : (m,) float64
         M_cov of each of those faces, in [0, 1].
     redundant : list of str
-        Keys of the redundant faces.
+        Keys of the redundant faces (none claimed when unregistered without ``force``).
     elements : list of dict
         Candidate new elements (clusters of new points, largest first): id (the
         ``cluster`` value), points, centroid, bounds, normal (PCA), kind "wall" (spans
@@ -141,6 +153,16 @@ class ChangeResult:
     elements: list
     params: ChangeParams
 
+    @property
+    def registered(self) -> bool:
+        """Whether the registration check passed (``registration.status``)."""
+        return self.registration.registered
+
+    @property
+    def classified(self) -> bool:
+        """Whether points and faces carry verdicts (registered, or ``params.force``)."""
+        return self.registered or bool(self.params.force)
+
     def new_structure(self) -> np.ndarray:
         """(n,) bool — points of candidate elements of kind "wall" (new structure)."""
         ids = [e["id"] for e in self.elements if e["kind"] == "wall"]
@@ -150,11 +172,15 @@ class ChangeResult:
         """JSON-ready counts, registration and verdicts."""
         n = len(self.point_type)
         new = int(np.sum(self.point_type == NEW))
+        existing = int(np.sum(self.point_type == EXISTING))
         return {
             "points": n,
-            "existing": n - new,
+            "existing": existing,
             "new": new,
+            "unclassified": n - new - existing,
             "new_share": new / n if n else 0.0,
+            "classified": self.classified,
+            "forced": bool(self.params.force and not self.registered),
             "registration": self.registration.to_dict(),
             "distance_threshold_m": float(self.distance_threshold),
             "surfaces": len(self.coverage_keys),
@@ -323,11 +349,14 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
     params : ChangeParams
     initial : (4, 4) float64, optional
         Coarse scan → model transform, refined by ICP unless ``params.registration.enabled``
-        is False. Default: from the cloud's offset and the model's transform/offset.
+        is False. Default: from the cloud's offset and the model's transform/offset, and
+        when that fails the check, the coarse starts of :func:`.registration.register`.
 
     Returns
     -------
     ChangeResult
+        ``registration.status`` is "registered" or "unregistered"; an unregistered result
+        claims no change unless ``params.force``.
     """
     params = params or ChangeParams()
     p = Progress.wrap(progress, should_stop)
@@ -335,10 +364,16 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
         cloud = PointCloud(np.asarray(cloud, dtype=np.float64).reshape(-1, 3))
     if len(cloud) == 0:
         raise EmptyCloudError("the scan has no points", cloud.source or None)
+    given = initial is not None
     if initial is None:
         initial = frame_transform(np.eye(4), cloud.offset, model.transform, model.offset)
-    reg = register(model, cloud.xyz, params.registration, initial=initial, progress=p.sub(0.0, 0.35),
+    # the check counts points within the change threshold when it is given (an automatic
+    # one comes from the residual, meaningless when the registration failed)
+    reg = register(model, cloud.xyz, params.registration, initial=initial,
+                   coarse_start=params.registration.coarse_start and not given,
+                   fitness_distance=params.distance_threshold, progress=p.sub(0.0, 0.35),
                    should_stop=should_stop)
+    claim = reg.registered or params.force
     t = reg.transform
     xyz = cloud.xyz @ t[:3, :3].T + t[:3, 3]
     p(0.4, "classifying points")
@@ -358,6 +393,10 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
             coverage[k] = min(1.0, alpha_area(pt.to2d(xyz[m]), params.alpha_radius) / pt.area)
     cov_patches = [patches[j] for j in cov_idx]
     redundant = [pt.key for pt, c in zip(cov_patches, coverage) if c <= params.redundant_threshold]
+    if not claim:
+        # a failed registration reads as change everywhere: claim none
+        point_type[:] = UNCLASSIFIED
+        redundant = []
 
     p(0.85, "clusters of new points")
     cluster = np.full(len(xyz), -1, dtype=np.int32)
@@ -373,7 +412,11 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
         for k, lab_k in enumerate(big):
             elements.append(_element(xyz[new_idx[lab == lab_k]], k, model, params))
     p(1.0, "done")
-    log.info("change detection: %d of %d points new, %d redundant faces, %d candidate elements, residual %.4f m",
-             len(new_idx), len(xyz), len(redundant), len(elements), reg.residual)
+    if not claim:
+        log.info("change detection: the scan is unregistered: no change claimed")
+    elif not reg.registered:
+        log.info("change detection: the scan is unregistered: changes reported as forced")
+    log.info("change detection: %d of %d points new, %d redundant faces, %d candidate elements, "
+             "residual %.4f m", len(new_idx), len(xyz), len(redundant), len(elements), reg.residual)
     return ChangeResult(reg, r, point_type, sup.distance, sup.patch, cluster, patches,
                         [pt.key for pt in cov_patches], coverage, cov_patches, redundant, elements, params)

@@ -3,14 +3,15 @@
 Files written by :func:`write_change_outputs` into ``out_dir`` (each atomically):
 
 * ``classified_points.ply`` — the scan points in the scan's own frame with scalar fields
-  ``type`` (uint8: 0 existing, 1 new), ``distance`` (float32 metres to the closest model
-  surface, -1 when none within the search distance), ``cluster`` (int32 candidate element,
-  -1 none), ``surface`` (int32 index into coverage/classification surfaces, -1 none) and
-  colours (existing grey-blue, new red);
-* ``coverage.json`` — one row per room face: key, shape, kind, area, coverage, redundant;
+  ``type`` (uint8: 0 existing, 1 new, 2 unclassified: the registration failed),
+  ``distance`` (float32 metres to the closest model surface, -1 when none within the
+  search distance), ``cluster`` (int32 candidate element, -1 none), ``surface`` (int32
+  index into coverage/classification surfaces, -1 none) and colours (existing grey-blue, new red, unclassified grey);
+* ``coverage.json`` — the registration status and one row per room face: key, shape,
+  kind, area, coverage, redundant;
 * ``surfaces_coverage.ply`` — the room faces (model frame) coloured by coverage;
-* ``summary.json`` — counts, registration (transform, residual), redundant faces,
-  candidate new elements.
+* ``summary.json`` — counts, registration (status "registered"/"unregistered", fitness,
+  rmse, transform, residual), redundant faces, candidate new elements.
 """
 from __future__ import annotations
 
@@ -22,12 +23,13 @@ import numpy as np
 
 from ..fileutil import atomic_write_text
 from ..evaluation.report import write_patch_mesh, write_ply_arrays
-from .detect import NEW, ChangeResult
+from .detect import EXISTING, NEW, ChangeResult
 
 __all__ = ["write_change_outputs"]
 
 EXISTING_RGB = (120, 150, 200)
 NEW_RGB = (230, 40, 30)
+UNCLASSIFIED_RGB = (160, 160, 160)
 
 
 def write_change_outputs(result: ChangeResult, cloud, out_dir, *, extra: Optional[dict] = None) -> dict:
@@ -41,8 +43,10 @@ def write_change_outputs(result: ChangeResult, cloud, out_dir, *, extra: Optiona
         ("points_ply", "classified_points.ply"), ("coverage_json", "coverage.json"),
         ("coverage_ply", "surfaces_coverage.ply"), ("summary_json", "summary.json"))}
     xyz = np.asarray(getattr(cloud, "xyz", cloud), dtype=np.float64)
-    col = np.where((result.point_type == NEW)[:, None], np.array(NEW_RGB, np.uint8),
-                   np.array(EXISTING_RGB, np.uint8)).astype(np.uint8)
+    col = np.empty((len(result.point_type), 3), dtype=np.uint8)
+    col[:] = UNCLASSIFIED_RGB
+    col[result.point_type == EXISTING] = EXISTING_RGB
+    col[result.point_type == NEW] = NEW_RGB
     dist = np.where(np.isfinite(result.distance), result.distance, -1.0).astype(np.float32)
     write_ply_arrays(paths["points_ply"], {
         "x": xyz[:, 0], "y": xyz[:, 1], "z": xyz[:, 2],
@@ -51,6 +55,7 @@ def write_change_outputs(result: ChangeResult, cloud, out_dir, *, extra: Optiona
         "cluster": result.cluster.astype(np.int32), "surface": result.surface.astype(np.int32)})
     rows = result.coverage_table()
     atomic_write_text(paths["coverage_json"], json.dumps({
+        "registration_status": result.registration.status, "classified": result.classified,
         "alpha_radius_m": result.params.alpha_radius,
         "redundant_threshold": result.params.redundant_threshold,
         "surfaces": rows}, indent=2))
