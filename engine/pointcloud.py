@@ -217,13 +217,28 @@ class PointCloud:
         return float(np.mean(first))
 
     def summary(self) -> dict:
-        """JSON-ready facts: count, bounds (original frame), fields, spacing, scans."""
+        """JSON-ready facts: count, bounds (original frame), fields, spacing, scans.
+
+        Besides the bounds of every point, ``core_bounds_min``/``core_bounds_max`` are the
+        bounds of the bulk of the points (:func:`_core_bounds`: percentiles widened through
+        gaps no larger than 0.5 m or 2 % of the extent, so a few far strays do not count);
+        ``strays`` is the number of points farther than ``max(5 m, 0.5 x the largest core
+        extent)`` from the core box and ``stray_max_distance_m`` the distance of the farthest
+        of them from the core box in metres (0.0 when there is no stray).
+        """
         b = self.bounds + self.offset
+        core = _core_bounds(self.xyz)
+        strays, far = _strays(self.xyz, core)
+        core = core + self.offset
         return {
             "source": self.source,
             "points": int(len(self)),
             "bounds_min": [float(v) for v in b[0]],
             "bounds_max": [float(v) for v in b[1]],
+            "core_bounds_min": [float(v) for v in core[0]],
+            "core_bounds_max": [float(v) for v in core[1]],
+            "strays": strays,
+            "stray_max_distance_m": far,
             "offset": [float(v) for v in self.offset],
             "fields": self.field_names,
             "mean_spacing_m": self.mean_spacing(),
@@ -231,3 +246,71 @@ class PointCloud:
             "dropped_nonfinite": int(self.dropped_nonfinite),
             "warnings": list(self.warnings),
         }
+
+
+STRAY_MIN_DISTANCE_M = 5.0
+"""A point is a stray (in :meth:`PointCloud.summary`) when it lies farther than this, or than
+``STRAY_CORE_FRACTION`` x the largest core extent if that is more, from the core box."""
+STRAY_CORE_FRACTION = 0.5
+_STRAY_BLOCK = 1 << 20
+
+
+def _core_bounds(xyz: np.ndarray, *, tail: float = 1.0, gap_m: float = 0.5, gap_rel: float = 0.02,
+                 sample: int = 200_000, rng=0) -> np.ndarray:
+    """(2, 3) float64 — min and max corner of the bulk of the points (same frame as ``xyz``).
+
+    Per axis: start from the ``tail`` and ``100 - tail`` percentiles (estimated on a
+    random sample of at most ``sample`` points), then widen each side outward through
+    the points beyond it, sorted, as long as consecutive values are at most
+    ``max(gap_m, gap_rel x percentile range)`` apart. A scan's walls, floor and ceiling
+    are far more than 1 % of its points, so the percentiles fall on them and the walk
+    reaches the true surface (noise and a sparse view through a window included); a few
+    strays hundreds of metres away are cut off by the first large gap. Robust to up to
+    ``tail`` % strays on each side of each axis.
+
+    Cost: O(n) per axis (a mask), plus sorting the ``tail`` % of points beyond each
+    percentile. Equals the bounds of every point when no gap is larger than the limit.
+    """
+    n = len(xyz)
+    if n == 0:
+        return np.zeros((2, 3))
+    gen = np.random.default_rng(rng)
+    pick = xyz if n <= sample else xyz[gen.choice(n, sample, replace=False)]
+    out = np.empty((2, 3))
+    for k in range(3):
+        col = xyz[:, k]
+        lo, hi = np.percentile(pick[:, k], [tail, 100.0 - tail])
+        gap = max(gap_m, gap_rel * float(hi - lo))
+        out[0, k] = -_walk(-col[col < lo], -lo, gap)
+        out[1, k] = _walk(col[col > hi], hi, gap)
+    return out
+
+
+def _walk(beyond: np.ndarray, start: float, gap: float) -> float:
+    """The largest value reached from ``start`` through the sorted values ``beyond`` (all
+    greater than ``start``) without a step larger than ``gap``."""
+    if len(beyond) == 0:
+        return float(start)
+    v = np.sort(beyond)
+    steps = np.diff(v, prepend=start)
+    big = np.flatnonzero(steps > gap)
+    if len(big) == 0:
+        return float(v[-1])
+    return float(v[big[0] - 1]) if big[0] else float(start)
+
+
+def _strays(xyz: np.ndarray, core: np.ndarray) -> tuple:
+    """(count of points farther than the stray distance from the box ``core`` (2, 3), the
+    distance of the farthest of them in metres, 0.0 when there is none); in blocks of
+    ``_STRAY_BLOCK`` points, so the temporaries stay small."""
+    if len(xyz) == 0:
+        return 0, 0.0
+    limit = max(STRAY_MIN_DISTANCE_M, STRAY_CORE_FRACTION * float(np.max(core[1] - core[0])))
+    count, far = 0, 0.0
+    for s in range(0, len(xyz), _STRAY_BLOCK):
+        b = xyz[s:s + _STRAY_BLOCK]
+        d = np.maximum(np.maximum(core[0] - b, b - core[1]), 0.0)
+        d2 = np.einsum("ij,ij->i", d, d)
+        count += int(np.count_nonzero(d2 > limit * limit))
+        far = max(far, float(np.sqrt(d2.max())))
+    return count, (far if count else 0.0)

@@ -8,6 +8,11 @@ Every reader
 * raises a typed error (:mod:`engine.errors`) naming the file and the problem: missing file,
   a directory, an empty file, unknown extension, truncated body, header counts larger than
   the data, wrong column count, an unreadable LAS/E57;
+* checks every count and size a header declares (elements, POINTS, compressed sizes,
+  LAS/LAZ records and chunks) against the file size **before** allocating; data beyond
+  the declared counts are not read and a warning goes to ``cloud.warnings``; any other
+  parsing exception (struct, numpy, codec) becomes a :class:`~engine.errors.FormatError`
+  naming the file (``_common.guard_reader``);
 * drops rows with non-finite coordinates and counts them in ``cloud.dropped_nonfinite``
   (:class:`~engine.errors.EmptyCloudError` when nothing, or fewer than
   :data:`~engine.pointcloud.MIN_POINTS` points, is left);

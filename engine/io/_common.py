@@ -2,21 +2,26 @@
 :class:`~engine.pointcloud.PointCloud` (non-finite rows, global offset, unit check)."""
 from __future__ import annotations
 
+import functools
 import logging
 import os
+import re
+import struct
 from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
 
-from ..errors import EmptyCloudError, InputError
+from ..errors import EmptyCloudError, FormatError, IndoorError, InputError
 from ..pointcloud import MIN_POINTS, PointCloud
 
-__all__ = ["ReadParams", "check_file", "finish_cloud", "colors_to_u8", "suspect_units"]
+__all__ = ["ReadParams", "check_file", "finish_cloud", "colors_to_u8", "suspect_units", "parse_count",
+           "guard_reader"]
 
 log = logging.getLogger(__name__)
 
-
+_WHOLE_NUMBER = re.compile(r"\+?[0-9]+")
+_NEGATIVE_NUMBER = re.compile(r"-[0-9]+")
 
 @dataclass(frozen=True)
 class ReadParams:
@@ -67,6 +72,58 @@ def check_file(path) -> str:
 
 _COLOUR_BLOCK_ROWS = 1 << 20
 """Rows converted at a time by :func:`colors_to_u8`, bounding its temporary memory."""
+
+
+def parse_count(token: str, what: str, path: str) -> int:
+    """A header count (points, rows, an element size) as a non-negative int.
+
+    ``token`` must be a whole number in decimal digits, optionally with a leading ``+``
+    (as C's ``strtol`` accepts); ``what`` names the count in the error ("the count of
+    element 'vertex'").
+
+    Raises
+    ------
+    FormatError
+        The count is negative, or not a whole number (``2e1``, ``5.0``, ``1_000``, ``x``).
+    """
+    t = token.strip()
+    if _WHOLE_NUMBER.fullmatch(t):
+        return int(t)
+    if _NEGATIVE_NUMBER.fullmatch(t):
+        raise FormatError(f"{what} is negative ({t})", path)
+    raise FormatError(f"{what} is not a whole number ({t[:40]!r})", path)
+
+
+_PARSE_ERRORS = (struct.error, OverflowError, UnicodeError, ValueError, EOFError)
+"""Exceptions a malformed file can still raise deep inside a parser (numpy, struct, codecs)
+after every check a reader makes; :func:`guard_reader` turns them into a FormatError."""
+
+
+def guard_reader(kind: str):
+    """Decorate a reader ``reader(path, **kw)`` so that a parsing exception that is not an
+    :class:`~engine.errors.IndoorError` (see ``_PARSE_ERRORS``) becomes a
+    :class:`~engine.errors.FormatError` naming the file, the format ``kind`` and the
+    original exception (chained, and logged at debug level with its traceback).
+
+    The readers check sizes and counts before allocating, so such an exception means a
+    corruption no check anticipated; MemoryError and other exceptions pass unchanged.
+    """
+    def wrap(reader):
+        @functools.wraps(reader)
+        def guarded(path, *args, **kwargs):
+            try:
+                return reader(path, *args, **kwargs)
+            except IndoorError:
+                raise
+            except _PARSE_ERRORS as e:
+                where = os.fspath(path)
+                name = type(e).__name__
+                if type(e).__module__ != "builtins":
+                    name = f"{type(e).__module__}.{name}"
+                log.debug("%s: unexpected %s while reading", where, name, exc_info=True)
+                raise FormatError(f"cannot parse this {kind} file ({name}: {str(e)[:200]})", where) from e
+        return guarded
+    return wrap
 
 
 def colors_to_u8(c: np.ndarray) -> np.ndarray:
@@ -140,6 +197,7 @@ def finish_cloud(
     scanner_positions=None,
     fields=None,
     offset=None,
+    warnings=(),
     params: ReadParams = DEFAULT_PARAMS,
 ) -> PointCloud:
     """Build the reader's result from raw arrays in file coordinates.
@@ -161,6 +219,9 @@ def finish_cloud(
     offset : (3,) float64 or None
         An offset already removed from ``xyz`` by the file itself (e.g. written by
         :func:`engine.io.write_ply`); any further offset removed here is added to it.
+    warnings : sequence of str
+        The reader's own warnings (e.g. data beyond the header's counts); each is logged
+        and put in ``cloud.warnings`` before the units warning.
 
     Raises
     ------
@@ -207,11 +268,12 @@ def finish_cloud(
             scanner_positions = np.asarray(scanner_positions, dtype=np.float64).reshape(-1, 3) - extra
         log.info("%s: removed global offset %s m", path, extra.tolist())
     warning = suspect_units(hi - lo, params)
+    notes = tuple(warnings) + ((warning,) if warning else ())
     cloud = PointCloud(
         xyz=xyz, colors=colors, intensity=intensity, normals=normals, scan_index=scan_index,
         scanner_positions=scanner_positions, offset=base + extra, fields=fields, source=path,
-        dropped_nonfinite=dropped, warnings=(warning,) if warning else (),
+        dropped_nonfinite=dropped, warnings=notes,
     )
-    if warning:
-        log.warning("%s: %s", path, warning)
+    for w in notes:
+        log.warning("%s: %s", path, w)
     return cloud

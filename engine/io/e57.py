@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import FormatError, IndoorError, MissingDependencyError
 from ..pointcloud import PointCloud
 from ..progress import Progress
-from ._common import DEFAULT_PARAMS, ReadParams, check_file, finish_cloud
+from ._common import DEFAULT_PARAMS, ReadParams, check_file, finish_cloud, guard_reader
 
 __all__ = ["read_e57"]
 
@@ -116,6 +116,7 @@ def _read_scan(e57, libe57, i, params, p, done, total, path):
     return xyz, colors, inten, t, n
 
 
+@guard_reader("E57")
 def read_e57(path, *, progress=None, should_stop=None, params: Optional[ReadParams] = None) -> PointCloud:
     """Read all scans of an E57 file.
 

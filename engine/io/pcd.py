@@ -17,10 +17,10 @@ from typing import Optional
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, IndoorError
 from ..pointcloud import PointCloud
 from ..progress import Progress
-from ._common import DEFAULT_PARAMS, ReadParams, check_file, finish_cloud
+from ._common import DEFAULT_PARAMS, ReadParams, check_file, finish_cloud, guard_reader, parse_count
 from ._text import iter_text_chunks, parse_rows
 
 __all__ = ["read_pcd", "lzf_decompress"]
@@ -29,6 +29,10 @@ _MAX_HEADER_LINES = 64
 _TYPES = {("F", 4): "f4", ("F", 8): "f8", ("I", 1): "i1", ("I", 2): "i2", ("I", 4): "i4", ("I", 8): "i8",
           ("U", 1): "u1", ("U", 2): "u2", ("U", 4): "u4", ("U", 8): "u8"}
 _TEXT_CHUNK_BYTES = 32 << 20
+_MAX_HEADER_LINE_BYTES = 1 << 16
+_LZF_MAX_EXPANSION = 88
+"""An LZF token of 3 bytes (control, length, offset) yields at most 264 bytes, a literal
+run fewer bytes than it takes: a stream decodes to at most 88 times its size."""
 
 
 def lzf_decompress(data: bytes, expected_size: int) -> bytes:
@@ -53,10 +57,14 @@ def lzf_decompress(data: bytes, expected_size: int) -> bytes:
     Raises
     ------
     ValueError
-        The stream is corrupt (a reference before the start, output overrun or underrun).
+        The stream is corrupt (a reference before the start, output overrun or underrun, a
+        back reference cut at the end), or ``expected_size`` is more than the stream can
+        decode to (checked before the output is allocated).
     """
     src = bytes(data)
     n = len(src)
+    if expected_size < 0 or expected_size > _LZF_MAX_EXPANSION * n:
+        raise ValueError(f"{n:,} LZF bytes cannot decode to {expected_size:,} bytes")
     out = bytearray(expected_size)
     ip = op = 0
     while ip < n:
@@ -71,6 +79,8 @@ def lzf_decompress(data: bytes, expected_size: int) -> bytes:
             ip += ln
         else:
             ln = ctrl >> 5
+            if ip + (ln == 7) >= n:
+                raise ValueError("LZF back reference cut at the end of the stream")
             if ln == 7:
                 ln += src[ip]
                 ip += 1
@@ -106,12 +116,15 @@ def _parse_header(path: str, f) -> _Header:
     h.data = None
     nlines = 0
     while h.data is None:
-        line = f.readline()
+        line = f.readline(_MAX_HEADER_LINE_BYTES)
         if not line:
             raise FormatError("PCD header has no DATA line", path)
         nlines += 1
         if nlines > _MAX_HEADER_LINES:
             raise FormatError("not a PCD file (no DATA line in the first lines)", path)
+        if len(line) == _MAX_HEADER_LINE_BYTES and not line.endswith(b"\n"):
+            raise FormatError(f"not a PCD file (header line {nlines} is longer than "
+                              f"{_MAX_HEADER_LINE_BYTES >> 10} KB)", path)
         text = line.decode("ascii", errors="replace").strip()
         if not text or text.startswith("#"):
             continue
@@ -123,23 +136,28 @@ def _parse_header(path: str, f) -> _Header:
             elif kw == "FIELDS" or kw == "COLUMNS":
                 h.fields = vals
             elif kw == "SIZE":
-                h.sizes = [int(v) for v in vals]
+                h.sizes = [parse_count(v, f"header line {nlines}: SIZE", path) for v in vals]
             elif kw == "TYPE":
                 h.types = [v.upper() for v in vals]
             elif kw == "COUNT":
-                h.counts = [int(v) for v in vals]
+                h.counts = [parse_count(v, f"header line {nlines}: COUNT", path) for v in vals]
+                if 0 in h.counts:
+                    raise FormatError(f"header line {nlines}: a field has COUNT 0", path)
             elif kw == "WIDTH":
-                h.width = int(vals[0])
+                h.width = parse_count(vals[0], "WIDTH", path)
             elif kw == "HEIGHT":
-                h.height = int(vals[0])
+                h.height = parse_count(vals[0], "HEIGHT", path)
             elif kw == "POINTS":
-                h.points = int(vals[0])
+                h.points = parse_count(vals[0], "POINTS", path)
             elif kw == "VIEWPOINT":
                 h.viewpoint = [float(v) for v in vals[:7]]
             elif kw == "DATA":
                 h.data = vals[0].lower()
             else:
-                raise FormatError(f"not a PCD file (unknown header keyword {t[0]!r} on line {nlines})", path)
+                raise FormatError(f"not a PCD file (unknown header keyword {t[0][:20]!r} on line {nlines})",
+                                  path)
+        except IndoorError:
+            raise
         except (IndexError, ValueError):
             raise FormatError(f"PCD header line {nlines} is malformed: {text[:60]!r}", path) from None
     h.header_lines = nlines
@@ -159,6 +177,9 @@ def _parse_header(path: str, f) -> _Header:
         if h.width is None:
             raise FormatError("PCD header has neither POINTS nor WIDTH", path)
         h.points = h.width * (h.height or 1)
+    elif h.width is not None and h.width * (h.height or 1) != h.points:
+        raise FormatError(f"PCD header: WIDTH {h.width:,} x HEIGHT {h.height or 1:,} is not POINTS "
+                          f"{h.points:,}", path)
     if h.data not in ("ascii", "binary", "binary_compressed"):
         raise FormatError(f"unknown PCD DATA type {h.data!r}", path)
     if not {"x", "y", "z"} <= set(h.fields):
@@ -174,6 +195,7 @@ def _parse_header(path: str, f) -> _Header:
     return h
 
 
+@guard_reader("PCD")
 def read_pcd(path, *, progress=None, should_stop=None, params: Optional[ReadParams] = None) -> PointCloud:
     """Read a PCD v0.5–0.7 file.
 
@@ -195,7 +217,10 @@ def read_pcd(path, *, progress=None, should_stop=None, params: Optional[ReadPara
     Raises
     ------
     FormatError
-        Malformed header, truncated or corrupt body, wrong column count (ascii).
+        Malformed header (a count that is negative or not a whole number, WIDTH x HEIGHT
+        other than POINTS), POINTS more than the file can hold (checked before anything is
+        allocated), a truncated or corrupt body, compressed sizes that disagree with POINTS,
+        wrong column count (ascii).
     EmptyCloudError
         No or too few finite points.
     """
@@ -207,10 +232,11 @@ def read_pcd(path, *, progress=None, should_stop=None, params: Optional[ReadPara
         h = _parse_header(path, f)
         n = h.points
         start = f.tell()
+        warnings = []
         if h.data == "ascii":
             cols = _read_ascii(path, f, h, p, size, start)
         elif h.data == "binary":
-            cols = _read_binary(path, f, h, p, size, start, params)
+            cols = _read_binary(path, f, h, p, size, start, params, warnings)
         else:
             cols = _read_compressed(path, f, h, p, size, start)
     xyz = np.empty((n, 3), np.float64)
@@ -237,7 +263,7 @@ def read_pcd(path, *, progress=None, should_stop=None, params: Optional[ReadPara
     if h.viewpoint is not None and len(h.viewpoint) >= 3:
         sp = np.asarray(h.viewpoint[:3], dtype=np.float64).reshape(1, 3)
     return finish_cloud(path, xyz, colors=colors, intensity=intensity, normals=normals, scanner_positions=sp,
-                        fields=fields, params=params)
+                        fields=fields, warnings=warnings, params=params)
 
 
 def _split_columns(h, table_or_getter, n):
@@ -257,6 +283,10 @@ def _split_columns(h, table_or_getter, n):
 def _read_ascii(path, f, h, p, size, start):
     ncols = sum(h.counts)
     n = h.points
+    avail = max(size - start, 0) + 1  # + 1: the last row may lack its newline
+    if n * 2 * ncols > avail:  # a row needs a digit and a separator per value
+        raise FormatError(f"the header declares {n:,} points but the {avail - 1:,} bytes after the header "
+                          f"can hold at most {avail // (2 * ncols):,} rows of {ncols} values", path)
     parts = []
     got = 0
     for text, line, done in iter_text_chunks(f, _TEXT_CHUNK_BYTES, h.header_lines + 1):
@@ -278,7 +308,7 @@ def _read_ascii(path, f, h, p, size, start):
     return cols
 
 
-def _read_binary(path, f, h, p, size, start, params):
+def _read_binary(path, f, h, p, size, start, params, warnings):
     n = h.points
     dt = np.dtype([(f"c{k}", "<" + code, (c,)) if c > 1 else (f"c{k}", "<" + code)
                    for k, (code, c) in enumerate(zip(h.np_types, h.counts))])
@@ -286,6 +316,9 @@ def _read_binary(path, f, h, p, size, start, params):
     if available < n:
         raise FormatError(f"truncated binary body: the header declares {n:,} points "
                           f"({n * dt.itemsize:,} bytes) but the file holds only {available:,}", path)
+    if available > n:
+        warnings.append(f"{size - start - n * dt.itemsize:,} bytes follow the header's {n:,} points (room "
+                        f"for {available - n:,} more): POINTS may be too small; only {n:,} points were read")
     rec = np.empty(n, dt)
     step = max(int(params.chunk_points), 1)
     for i in range(0, n, step):
@@ -305,15 +338,25 @@ def _read_compressed(path, f, h, p, size, start):
     if len(head) < 8:
         raise FormatError("truncated binary_compressed body: no size words after the header", path)
     csize, usize = (int(v) for v in np.frombuffer(head, "<u4"))
-    comp = f.read(csize)
-    if len(comp) < csize:
+    present = max(size - start - 8, 0)
+    if csize > present:  # checked before reading: a corrupt size would allocate up to 4 GB
         raise FormatError(f"truncated binary_compressed body: {csize:,} compressed bytes declared, "
-                          f"{len(comp):,} present", path)
+                          f"{present:,} present", path)
     item = [np.dtype(code).itemsize * c for code, c in zip(h.np_types, h.counts)]
     need = n * sum(item)
     if usize < need:
         raise FormatError(f"the header declares {n:,} points ({need:,} bytes) but the compressed body "
                           f"holds only {usize:,} bytes", path)
+    if usize > need:
+        raise FormatError(f"the compressed body declares {usize:,} uncompressed bytes but the header's "
+                          f"{n:,} points of {sum(item)} bytes are {need:,} bytes (corrupt size word?)", path)
+    if need > _LZF_MAX_EXPANSION * csize:
+        raise FormatError(f"the header declares {n:,} points ({need:,} bytes) but {csize:,} compressed "
+                          f"bytes can decode to at most {_LZF_MAX_EXPANSION * csize:,}", path)
+    comp = f.read(csize)
+    if len(comp) < csize:
+        raise FormatError(f"truncated binary_compressed body: {csize:,} compressed bytes declared, "
+                          f"{len(comp):,} present", path)
     p(0.05, "decompressing PCD")
     try:
         raw = lzf_decompress(comp, usize)

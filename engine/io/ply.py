@@ -25,12 +25,13 @@ from typing import Optional
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import FormatError, IndoorError
 from ..fileutil import atomic_path
 from ..pointcloud import PointCloud
 from ..progress import Progress
-from ._common import DEFAULT_PARAMS, ReadParams, check_file, colors_to_u8, finish_cloud
-from ._text import iter_text_chunks, parse_rows
+from ._common import (DEFAULT_PARAMS, ReadParams, check_file, colors_to_u8, finish_cloud, guard_reader,
+                      parse_count)
+from ._text import count_lines, iter_text_chunks, parse_rows, take_lines
 
 __all__ = ["read_ply", "write_ply"]
 
@@ -43,6 +44,8 @@ _PLY_TYPES = {
 _NP_TO_PLY = {"i1": "char", "u1": "uchar", "i2": "short", "u2": "ushort", "i4": "int", "u4": "uint",
               "f4": "float", "f8": "double"}
 _MAX_HEADER_BYTES = 1 << 20
+_END_HEADER = re.compile(rb"(?:^|\n)end_header[ \t\r]*\n")
+"""The line ending the header: ``end_header`` alone on its line (not inside a comment)."""
 _ASCII_CHUNK_BYTES = 32 << 20
 
 _ROLE_NAMES = {
@@ -74,21 +77,19 @@ def _parse_header(path: str, f) -> _Header:
         raise FormatError("not a PLY file (it does not start with 'ply')", path)
     f.seek(0)
     raw = b""
-    while b"end_header" not in raw:
+    m = None
+    while m is None:
         block = f.read(65536)
         if not block:
             raise FormatError("PLY header has no 'end_header' line", path)
         raw += block
-        if len(raw) > _MAX_HEADER_BYTES and b"end_header" not in raw:
+        m = _END_HEADER.search(raw)
+        if m is None and len(raw) > _MAX_HEADER_BYTES:
             raise FormatError("PLY header has no 'end_header' line in its first megabyte", path)
-    end = raw.index(b"end_header")
-    nl = raw.find(b"\n", end)
-    if nl < 0:
-        raise FormatError("PLY header is cut after 'end_header'", path)
     h = _Header()
-    h.data_start = nl + 1
-    h.header_lines = raw[: nl + 1].count(b"\n")
-    lines = raw[:end].decode("ascii", errors="replace").splitlines()
+    h.data_start = m.end()
+    h.header_lines = raw[: m.end()].count(b"\n")
+    lines = raw[: m.start()].decode("ascii", errors="replace").splitlines()
     for k, line in enumerate(lines[1:], start=2):
         t = line.split()
         if not t:
@@ -97,23 +98,30 @@ def _parse_header(path: str, f) -> _Header:
         try:
             if kw == "format":
                 if t[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
-                    raise FormatError(f"unknown PLY format {t[1]!r}", path)
+                    raise FormatError(f"unknown PLY format {t[1][:40]!r}", path)
                 h.format = t[1]
             elif kw in ("comment", "obj_info"):
                 h.comments.append(line.split(None, 1)[1] if len(t) > 1 else "")
             elif kw == "element":
-                h.elements.append((t[1], int(t[2]), []))
+                count = parse_count(t[2], f"header line {k}: the count of element {t[1][:40]!r}", path)
+                h.elements.append((t[1], count, []))
             elif kw == "property":
                 if not h.elements:
                     raise FormatError(f"header line {k}: property before any element", path)
                 if t[1] == "list":
-                    h.elements[-1][2].append((t[4], "list", _ptype(t[2], path), _ptype(t[3], path)))
+                    count_t = _ptype(t[2], path)
+                    if np.dtype(count_t).kind not in "iu":
+                        raise FormatError(f"header line {k}: the count type of list property {t[4]!r} "
+                                          f"must be an integer type, not {t[2]!r}", path)
+                    h.elements[-1][2].append((t[4], "list", count_t, _ptype(t[3], path)))
                 else:
                     h.elements[-1][2].append((t[2], _ptype(t[1], path)))
             else:
-                raise FormatError(f"header line {k}: unknown keyword {kw!r}", path)
+                raise FormatError(f"header line {k}: unknown keyword {kw[:40]!r}", path)
+        except IndoorError:
+            raise
         except (IndexError, ValueError):
-            raise FormatError(f"header line {k}: malformed {line.strip()!r}", path) from None
+            raise FormatError(f"header line {k}: malformed {line.strip()[:80]!r}", path) from None
     if h.format is None:
         raise FormatError("PLY header has no 'format' line", path)
     return h
@@ -123,7 +131,111 @@ def _ptype(name: str, path: str) -> str:
     try:
         return _PLY_TYPES[name]
     except KeyError:
-        raise FormatError(f"unknown PLY property type {name!r}", path) from None
+        raise FormatError(f"unknown PLY property type {name[:40]!r}", path) from None
+
+
+def _record_bytes(props) -> tuple:
+    """(bytes of one binary record, whether that size is exact): a list property adds only
+    its count (an empty list), so with lists the size is a lower bound."""
+    total, exact = 0, True
+    for pr in props:
+        if len(pr) == 2:
+            total += np.dtype(pr[1]).itemsize
+        else:
+            total += np.dtype(pr[2]).itemsize
+            exact = False
+    return total, exact
+
+
+def _binary_layout(path, h, vi, endian, size):
+    """Check every element count against the bytes after the header, before anything is
+    allocated, and locate the vertices.
+
+    Returns
+    -------
+    start : int
+        File offset of the first vertex.
+    dt : numpy.dtype
+        The vertex record.
+    warnings : list of str
+        Data beyond the declared elements, or elements after the vertices that cannot fit.
+
+    Raises
+    ------
+    FormatError
+        An element before the vertices has list properties or does not fit in the file;
+        the vertices do not fit ("truncated binary body").
+    """
+    avail = max(size - h.data_start, 0)
+    skip = 0
+    for name, count, eprops in h.elements[:vi]:
+        if any(len(pr) != 2 for pr in eprops):
+            raise FormatError(f"PLY element {name!r} before 'vertex' has list properties; "
+                              "cannot locate the vertices", path)
+        rec, _ = _record_bytes(eprops)
+        if skip + count * rec > avail:
+            raise FormatError(f"the header declares {count:,} {name!r} elements before the vertices "
+                              f"({count * rec:,} bytes) but only {avail - skip:,} bytes follow the header",
+                              path)
+        skip += count * rec
+    _, n, props = h.elements[vi]
+    try:
+        dt = np.dtype([(pr[0], endian + pr[1]) for pr in props])
+    except (ValueError, TypeError) as e:  # e.g. two properties with one name
+        raise FormatError(f"bad PLY vertex properties ({e})", path) from None
+    left = avail - skip
+    available = left // dt.itemsize if dt.itemsize else 0
+    if available < n:
+        raise FormatError(
+            f"truncated binary body: the header declares {n:,} vertices "
+            f"({n * dt.itemsize:,} bytes) but the file holds only {available:,}", path)
+    left -= n * dt.itemsize
+    warnings = []
+    after, exact, smallest = 0, True, dt.itemsize
+    for name, count, eprops in h.elements[vi + 1:]:
+        rec, ex = _record_bytes(eprops)
+        after += count * rec
+        exact &= ex
+        smallest = min(smallest, rec) if rec else smallest
+        if after > left:
+            warnings.append(f"the header declares {count:,} {name!r} elements after the vertices, more "
+                            f"than the remaining {left:,} bytes can hold; only the vertices are read")
+            return h.data_start + skip, dt, warnings
+    trailing = left - after
+    if exact and smallest and trailing >= smallest:
+        warnings.append(f"{trailing:,} bytes follow the elements the header declares (room for "
+                        f"{trailing // dt.itemsize:,} more vertices): the header's counts may be too "
+                        f"small; only the declared {n:,} vertices were read")
+    return h.data_start + skip, dt, warnings
+
+
+def _ascii_rows_check(path, h, vi, size):
+    """Check the ASCII element counts against the bytes after the header before anything
+    is allocated: a row needs at least a digit and a separator per property (a list at
+    least its count), so ``count * 2 * properties`` bytes (the last row may lack its
+    newline). Returns warnings about elements after the vertices that cannot fit.
+
+    Raises
+    ------
+    FormatError
+        An element up to and including the vertices cannot fit.
+    """
+    avail = max(size - h.data_start, 0) + 1  # + 1: the last row may lack its newline
+    used = 0
+    warnings = []
+    for i, (name, count, eprops) in enumerate(h.elements):
+        row = 2 * max(len(eprops), 1)
+        if used + count * row > avail:
+            most = max(avail - used, 0) // row
+            if i > vi:
+                warnings.append(f"the header declares {count:,} {name!r} elements after the vertices, "
+                                f"more than the file can hold; only the vertices are read")
+                break
+            raise FormatError(f"the header declares {count:,} {name!r} elements but the "
+                              f"{avail - 1:,} bytes after the header can hold at most {most:,} rows of "
+                              f"{len(eprops)} values", path)
+        used += count * row
+    return warnings
 
 
 def _comment_values(comments, key):
@@ -230,11 +342,16 @@ class _Assembler:
                 a[start:start + len(v), col] = v
 
 
+@guard_reader("PLY")
 def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadParams] = None) -> PointCloud:
     """Read the ``vertex`` element of a PLY file.
 
     Binary bodies are read with a structured dtype in chunks of ``params.chunk_points``
-    (progress reported per chunk); ASCII bodies are parsed in chunks of lines.
+    (progress reported per chunk); ASCII bodies are parsed in chunks of lines. Every
+    element count is checked against the size of the file before anything is allocated.
+    When the file holds more data than the header declares (binary: bytes beyond the
+    declared elements; ASCII: more lines), the declared vertices are read and a warning
+    is added to ``cloud.warnings``.
 
     Parameters
     ----------
@@ -252,8 +369,10 @@ def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadPara
     Raises
     ------
     FormatError
-        Not a PLY file, a malformed header, no vertex element or no x/y/z, list properties
-        in the vertex element, a body shorter than the header's vertex count, a bad ASCII line.
+        Not a PLY file, a malformed header (an unknown type, a count that is negative or not
+        a whole number), no vertex element or no x/y/z, list properties in the vertex
+        element, element counts larger than the file can hold (a truncated body), a bad
+        ASCII line.
     EmptyCloudError
         No or too few finite points.
     """
@@ -275,27 +394,14 @@ def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadPara
             raise FormatError("the PLY vertex element names a property twice", path)
         if not {"x", "y", "z"} <= set(pnames):
             raise FormatError("PLY vertex element lacks x, y or z", path)
-        asm = _Assembler(pnames, [pr[1] for pr in props], n)
         if h.format == "ascii":
-            _read_ascii_body(path, f, h, vi, n, pnames, asm, p, params)
+            warnings = _ascii_rows_check(path, h, vi, size)  # before allocating
+            asm = _Assembler(pnames, [pr[1] for pr in props], n)
+            warnings += _read_ascii_body(path, f, h, vi, n, pnames, asm, p, params)
         else:
             endian = "<" if h.format == "binary_little_endian" else ">"
-            skip = 0
-            for name, count, eprops in h.elements[:vi]:
-                if any(len(pr) != 2 for pr in eprops):
-                    raise FormatError(f"PLY element {name!r} before 'vertex' has list properties; "
-                                      "cannot locate the vertices", path)
-                skip += count * np.dtype([(pr[0], endian + pr[1]) for pr in eprops]).itemsize
-            try:
-                dt = np.dtype([(pr[0], endian + pr[1]) for pr in props])
-            except (ValueError, TypeError) as e:  # e.g. two properties with one name
-                raise FormatError(f"bad PLY vertex properties ({e})", path) from None
-            start = h.data_start + skip
-            available = max(size - start, 0) // dt.itemsize if dt.itemsize else 0
-            if available < n:
-                raise FormatError(
-                    f"truncated binary body: the header declares {n:,} vertices "
-                    f"({n * dt.itemsize:,} bytes) but the file holds only {available:,}", path)
+            start, dt, warnings = _binary_layout(path, h, vi, endian, size)  # before allocating
+            asm = _Assembler(pnames, [pr[1] for pr in props], n)
             asm.fuse(dt)
             step = max(int(params.chunk_points), 1)
             try:  # map the body: chunks are copied straight from the page cache
@@ -328,39 +434,55 @@ def read_ply(path, *, progress=None, should_stop=None, params: Optional[ReadPara
                                           f"{i + got // dt.itemsize:,} of {n:,}", path)
                     asm.put_records(i, chunk)
                     p((i + m) / max(n, 1), "reading PLY")
-    return _finish(path, h, asm, params)
+    return _finish(path, h, asm, params, warnings)
 
 
-def _read_ascii_body(path, f, h, vi, n, pnames, asm, p, params):
-    """Stream the vertex lines of an ASCII body in chunks of about ``_ASCII_CHUNK_BYTES``."""
+def _read_ascii_body(path, f, h, vi, n, pnames, asm, p, params) -> list:
+    """Stream the vertex lines of an ASCII body in chunks of about ``_ASCII_CHUNK_BYTES``.
+
+    Blank lines are skipped. Returns warnings: more non-blank lines than the header's
+    elements declare.
+    """
     f.seek(h.data_start)
     size = max(os.path.getsize(path) - h.data_start, 1)
-    skip = sum(e[1] for e in h.elements[:vi])  # lines of the elements before 'vertex'
+    skip = sum(e[1] for e in h.elements[:vi])  # rows of the elements before 'vertex'
     line_no = h.header_lines + 1
-    for _ in range(skip):
-        if not f.readline():
-            break
+    skipped = 0
+    while skipped < skip:
+        line = f.readline()
+        if not line:
+            raise FormatError(f"the header declares {skip:,} rows of elements before the vertices "
+                              f"but the file holds only {skipped:,} lines", path)
         line_no += 1
+        skipped += bool(line.strip())
     ncols = len(pnames)
     got = 0
+    tail = 0  # non-blank lines after the vertices
     for text, first, done in iter_text_chunks(f, _ASCII_CHUNK_BYTES, line_no):
         need = n - got
         if need <= 0:
-            break
-        if text.count("\n") >= need:  # the vertex lines end in this chunk: faces may follow
-            text = "\n".join(text.split("\n", need)[:need]) + "\n"
+            tail += count_lines(text)
+            continue
+        text, rest = take_lines(text, need)  # the vertex lines may end in this chunk: faces follow
         vals = parse_rows(text, ncols, path, first_line=first)
         cols = {nm: vals[:, k] for k, nm in enumerate(pnames)}
-        m = min(len(vals), need)
+        m = len(vals)
         asm.put(got, lambda nm: cols[nm][:m])
         got += m
+        tail += count_lines(rest)
         p(min(done / size, got / max(n, 1)), "reading PLY")
     if got < n:
         raise FormatError(f"the header declares {n:,} vertices but the file holds only "
                           f"{got:,} vertex lines", path)
+    declared = sum(e[1] for e in h.elements[vi + 1:])
+    if tail > declared:
+        what = "vertices" if vi + 1 == len(h.elements) else "elements"
+        return [f"the file holds {tail - declared:,} more lines than the header's {what} declare: its "
+                f"counts may be too small; only the declared {n:,} vertices were read"]
+    return []
 
 
-def _finish(path, h, asm, params):
+def _finish(path, h, asm, params, warnings):
     a = asm.arrays
     colors = None if "colors" not in a else colors_to_u8(a["colors"])
     fields = {k[6:]: v for k, v in a.items() if k.startswith("field:")}
@@ -371,7 +493,7 @@ def _finish(path, h, asm, params):
     sp = np.asarray([s[1] for s in scanners], dtype=np.float64) if scanners else None
     return finish_cloud(path, a["xyz"], colors=colors, intensity=a.get("intensity"), normals=a.get("normals"),
                         scan_index=a.get("scan_index"), scanner_positions=sp, fields=fields, offset=offset,
-                        params=params)
+                        warnings=warnings, params=params)
 
 
 def write_ply(path, cloud: PointCloud, *, binary: bool = True, dtype: str = "f8") -> None:

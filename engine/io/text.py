@@ -4,6 +4,14 @@ One point per line, 3 or more numbers separated by spaces, tabs, commas or semic
 Leading non-numeric lines are header lines; a single integer line before the data is a
 point count (Leica PTS writes one) and is checked against the number of rows.
 
+Decimal commas (European software): fields separated by ``;``, tabs or spaces whose numbers
+hold one comma, such as ``8,7751;0,1627;1,2500``, are read as 8.7751 0.1627 1.25. The
+separator and decimal mark are told from the first data lines
+(:func:`engine.io._text.detect_style`); a file that could be read two ways (``1,5, 2,5``)
+or mixes ``,`` and ``.`` as decimal marks is refused, never guessed. Ordinary CSV (commas
+between numbers with ``.`` decimals) reads as before. UTF-16 text and binary data (NUL
+bytes) are refused with a message saying so.
+
 Columns beyond ``x y z``:
 
 * When the last header line names every column, names decide: ``x y z``; ``r g b`` /
@@ -30,14 +38,19 @@ import numpy as np
 from ..errors import FormatError
 from ..pointcloud import PointCloud
 from ..progress import Progress
-from ._common import DEFAULT_PARAMS, ReadParams, check_file, colors_to_u8, finish_cloud
-from ._text import iter_text_chunks, parse_rows, split_tokens
+from ._common import DEFAULT_PARAMS, ReadParams, check_file, colors_to_u8, finish_cloud, guard_reader
+from ._text import detect_style, iter_text_chunks, parse_rows, split_tokens
 
 __all__ = ["read_text"]
 
 _MAX_HEADER_LINES = 50
 _COUNT_LINE = re.compile(r"^[ \t]*(\d+)[ \t]*\r?\n", re.MULTILINE)
 _CHUNK_BYTES = 32 << 20
+_MAX_LINE_BYTES = 1 << 20
+"""A header or first data line longer than this is not a point list."""
+_SAMPLE_BYTES = 1 << 16
+_SAMPLE_LINES = 200
+"""The separator and decimal mark are told from at most this many lines (in 64 KB) of data."""
 _NAME_ROLES = {
     "x": ("xyz", 0), "y": ("xyz", 1), "z": ("xyz", 2),
     "r": ("rgb", 0), "g": ("rgb", 1), "b": ("rgb", 2),
@@ -67,6 +80,28 @@ def _clean_name(t: str) -> str:
     return t.strip().strip("/#\"'").strip().lower()
 
 
+def _check_encoding(path: str, start: bytes) -> None:
+    """Refuse UTF-16/32 text and binary data (NUL bytes) with a message saying so."""
+    if start[:4] in (b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff"):
+        raise FormatError("the file is UTF-32 text; save it as UTF-8 or ASCII", path)
+    if start[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        raise FormatError("the file is UTF-16 text; save it as UTF-8 or ASCII", path)
+    if b"\x00" in start:
+        raise FormatError("the file holds binary data (NUL bytes), not a text point list", path)
+
+
+def _sample_lines(f, pos: int) -> list:
+    """Up to ``_SAMPLE_LINES`` non-blank lines from ``pos`` (the file position is restored)."""
+    f.seek(pos)
+    block = f.read(_SAMPLE_BYTES)
+    f.seek(pos)
+    lines = block.decode("utf-8", errors="replace").splitlines()
+    if len(block) == _SAMPLE_BYTES and len(lines) > 1:
+        lines = lines[:-1]  # possibly cut
+    return [ln for ln in lines if ln.strip()][:_SAMPLE_LINES]
+
+
+@guard_reader("text")
 def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadParams] = None) -> PointCloud:
     """Read a text point list (see the module docstring for the column conventions).
 
@@ -87,7 +122,8 @@ def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadPar
     ------
     FormatError
         No numeric data, fewer than 3 columns, a line with a different column count, a value
-        that is not a number, or a count line that disagrees with the rows.
+        that is not a number, a count line that disagrees with the rows, an ambiguous or
+        mixed decimal mark, UTF-16 text or binary data.
     EmptyCloudError
         No or too few finite points.
     """
@@ -96,16 +132,21 @@ def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadPar
     p = Progress.wrap(progress, should_stop)
     size = os.path.getsize(path)
     with open(path, "rb") as f:
+        _check_encoding(path, f.read(4096))
+        f.seek(0)
         header_names = None
         count = None
         line_no = 0
         first = None
         while first is None:
             pos = f.tell()
-            raw = f.readline()
+            raw = f.readline(_MAX_LINE_BYTES)
             if not raw:
                 raise FormatError("no numeric point data found", path)
             line_no += 1
+            if len(raw) == _MAX_LINE_BYTES and not raw.endswith(b"\n"):
+                raise FormatError(f"line {line_no} is longer than {_MAX_LINE_BYTES >> 20} MB: "
+                                  "not a text point list", path)
             if raw.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte-order mark
                 raw, pos = raw[3:], pos + 3
             text = raw.decode("utf-8", errors="replace")
@@ -123,10 +164,12 @@ def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadPar
             if len(vals) == 1 and count is None and float(vals[0]).is_integer():
                 count = int(vals[0])
                 continue
-            if len(vals) < 3:
-                raise FormatError(f"line {line_no}: {len(vals)} values; at least 3 (x y z) are needed", path)
-            first = (pos, line_no, len(vals))
-        pos, first_line, ncols = first
+            first = (pos, line_no, text)
+        pos, first_line, text = first
+        style = detect_style(_sample_lines(f, pos), path)
+        ncols = len(style.tokens(text))
+        if ncols < 3:
+            raise FormatError(f"line {first_line}: {ncols} values; at least 3 (x y z) are needed", path)
         f.seek(pos)
         parts = []
         blocks = [] if count is None else [count]  # declared sizes of PTS blocks
@@ -139,10 +182,10 @@ def read_text(path, *, progress=None, should_stop=None, params: Optional[ReadPar
                         blocks.append(int(pieces[k - 1]))
                         parts.append(None)  # block boundary
                     if pieces[k].strip():
-                        parts.append(parse_rows(pieces[k], ncols, path, line, commas=True))
+                        parts.append(parse_rows(pieces[k], ncols, path, line, style=style))
                     line += pieces[k].count("\n") + (1 if k + 1 < len(pieces) else 0)
             else:
-                parts.append(parse_rows(text, ncols, path, line, commas=True))
+                parts.append(parse_rows(text, ncols, path, line, style=style))
             p(done / max(size - pos, 1), "reading text")
     # rows per block (one block unless a PTS file has several count lines)
     sizes, cur = [], 0
