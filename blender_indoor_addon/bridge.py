@@ -336,6 +336,12 @@ def _fill_mesh(mesh, cloud) -> list[str]:
     return names
 
 
+def _path_text(path) -> str:
+    from ..engine.errors import _path_text as text
+
+    return text(path)
+
+
 def point_cloud_to_object(cloud, name: str | None = None, *, collection: str = SCAN_COLLECTION,
                           display_ratio: float = 1.0, point_radius: float = 0.01, seed: int = 0,
                           scene: bpy.types.Scene | None = None):
@@ -384,7 +390,7 @@ def point_cloud_to_object(cloud, name: str | None = None, *, collection: str = S
         obj = bpy.data.objects.new(name, mesh)
         created.append(("object", obj))
         obj[OFFSET_PROP] = [float(v) for v in cloud.offset]
-        obj[SOURCE_PROP] = cloud.source
+        obj[SOURCE_PROP] = _path_text(cloud.source) if cloud.source else ""  # ID strings are UTF-8
         obj[COUNT_PROP] = int(len(cloud))
         obj["indoor_attributes"] = names
         ng = points_node_group(created)
@@ -1022,8 +1028,8 @@ CHANGE_DISTANCE_COLOR = "change_distance_color"
 """BYTE_COLOR POINT attribute: distance on :data:`DISTANCE_RAMP` (0 → 2 r), grey when none."""
 CHANGE_MATERIAL = "Indoor Changes"
 """Material of a scan showing its change colours (reads one of the two colour attributes)."""
-TYPE_COLORS_CHANGE = {0: (0.55, 0.55, 0.58), 1: (0.90, 0.12, 0.10)}
-"""sRGB colours of existing (0) and new (1) points."""
+TYPE_COLORS_CHANGE = {0: (0.55, 0.55, 0.58), 1: (0.90, 0.12, 0.10), 2: (0.30, 0.30, 0.30)}
+"""sRGB colours of existing (0), new (1) and unclassified (2: the scan is unregistered) points."""
 DISTANCE_RAMP = ((0.0, (0.15, 0.35, 0.85)), (0.5, (0.95, 0.85, 0.20)), (1.0, (0.90, 0.12, 0.10)))
 """(position 0–1 of [0, 2 r], sRGB) stops of the distance colours: blue 0 → yellow r → red ≥ 2 r."""
 NO_SURFACE_COLOR = (0.35, 0.35, 0.35)
@@ -1082,7 +1088,8 @@ def changed_scans() -> list:
 def change_overlay(obj, result, model, *, mode: str = "TYPE", scene=None) -> dict:
     """Show a :class:`~engine.change.ChangeResult` on the scan ``obj`` and the model.
 
-    The scan's point mesh gets POINT attributes :data:`CHANGE_TYPE` (INT 0/1),
+    The scan's point mesh gets POINT attributes :data:`CHANGE_TYPE` (INT 0/1, 2 when the
+    scan is unregistered),
     :data:`CHANGE_DISTANCE` (FLOAT metres, inf when no surface) and the two colour
     attributes; its points are drawn with :data:`CHANGE_MATERIAL`. The room faces with a
     coverage value become objects of the "Changes" collection (FACE attribute and
@@ -1100,8 +1107,8 @@ def change_overlay(obj, result, model, *, mode: str = "TYPE", scene=None) -> dic
     t.data.foreach_set("value", result.point_type.astype(np.int32))
     d = _attribute(mesh, CHANGE_DISTANCE, "FLOAT")
     d.data.foreach_set("value", result.distance.astype(np.float32))
-    cols = np.array([TYPE_COLORS_CHANGE[0], TYPE_COLORS_CHANGE[1]], dtype=np.float32)
-    _byte_color(mesh, CHANGE_TYPE_COLOR, cols[np.clip(result.point_type, 0, 1)])
+    cols = np.array([TYPE_COLORS_CHANGE[k] for k in sorted(TYPE_COLORS_CHANGE)], dtype=np.float32)
+    _byte_color(mesh, CHANGE_TYPE_COLOR, cols[np.clip(result.point_type, 0, len(cols) - 1)])
     r = float(result.distance_threshold)
     dcol = ramp(np.clip(result.distance / (2 * r), 0.0, 1.0), DISTANCE_RAMP)
     dcol[~np.isfinite(result.distance)] = NO_SURFACE_COLOR

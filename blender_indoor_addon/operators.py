@@ -1,7 +1,9 @@
 """Operators: read properties, call one engine function, hand the result to the bridge.
 
-Engine errors (:class:`~engine.errors.IndoorError`) become ``self.report({'ERROR'}, ...)``
-and ``{'CANCELLED'}``; the scene is left as it was.
+Every operator has one error boundary: any exception (an engine error or a bug) becomes
+one line in ``self.report({'ERROR'}, ...)`` naming the file or object and the kind of
+error (:func:`engine.errors.error_line`), never a traceback, and ``{'CANCELLED'}``; the
+scene is left as it was. Internal errors are logged with their traceback.
 """
 from __future__ import annotations
 
@@ -14,9 +16,9 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
                        StringProperty)
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
-from ..engine.errors import IndoorError
+from ..engine.errors import error_kind, error_line
 from . import bridge
-from .props import EDIT_TYPE_ITEMS, METHOD_ITEMS, POSITION_ITEMS
+from .props import EDIT_TYPE_ITEMS, METHOD_ITEMS, POSITION_ITEMS, UNITS_ITEMS, UP_ITEMS
 
 log = logging.getLogger(__name__)
 
@@ -30,6 +32,14 @@ SCAN_EXTENSIONS = (".ply", ".pcd", ".e57", ".las", ".laz", ".pts", ".xyz", ".txt
 """File extensions the Import scan file browser shows (the engine decides what it reads)."""
 
 
+def _fail(op, exc: BaseException, subject=None):
+    """Report ``exc`` on one line (naming ``subject``, a file or an object) and cancel."""
+    if error_kind(exc) == "internal":
+        log.error("%s", error_line(exc, subject), exc_info=exc)
+    op.report({"ERROR"}, error_line(exc, subject))
+    return {"CANCELLED"}
+
+
 def _progress_callback(context):
     """A ``progress(fraction, message)`` callback driving the window manager's progress bar."""
     wm = context.window_manager
@@ -40,6 +50,24 @@ def _progress_callback(context):
             log.debug("%3.0f%% %s", 100 * fraction, message)
 
     return progress
+
+
+def _import_frame(cloud, units: str, up: str):
+    """``(cloud, frame record)`` in metres with z up (``engine.segmentation.frame``).
+
+    Import shows any file: a cloud the automatic detection cannot judge (no building in it:
+    noise, a single wall) is imported as it is and the record says why; Reconstruct refuses
+    it later with its own message.
+    """
+    from ..engine.errors import ReconstructionError
+    from ..engine.segmentation.frame import normalize_frame
+
+    try:
+        return normalize_frame(cloud, units=units, up=up)
+    except ReconstructionError as e:
+        if units != "auto" or up != "auto":
+            raise
+        return cloud, {"units": "m", "scale": 1.0, "up": "z", "checked": False, "note": e.problem}
 
 
 class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
@@ -66,6 +94,10 @@ class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
         default=0.01, min=0.0, soft_max=0.1, subtype="DISTANCE", unit="LENGTH", precision=4,
     )
     seed: IntProperty(name="Seed", description="Seed of the random display subset", default=0, min=0)
+    units: EnumProperty(name="Units", items=UNITS_ITEMS, default="auto",
+                        description="Units of the file's coordinates; the points are rescaled to metres")
+    up_axis: EnumProperty(name="Up axis", items=UP_ITEMS, default="auto",
+                          description="Which axis of the file points up; the points are turned z up")
     files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"HIDDEN", "SKIP_SAVE"})
     directory: StringProperty(subtype="DIR_PATH", options={"HIDDEN", "SKIP_SAVE"})
 
@@ -89,6 +121,8 @@ class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
         return [bpy.path.abspath(self.filepath)]
 
     def execute(self, context):
+        import json
+
         from ..engine.io import read_point_cloud  # the engine is imported on first use
 
         self._defaults_from_scene(context)
@@ -100,23 +134,26 @@ class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
         try:
             # every file is read before Blender data changes: a bad file leaves the scene as it was
             clouds = []
+            path = None
             for i, path in enumerate(paths):
                 share = (i / len(paths), (i + 1) / len(paths))
-                clouds.append(read_point_cloud(
-                    path, progress=lambda f, m="", a=share: progress(a[0] + f * (a[1] - a[0]), m)))
+                cloud = read_point_cloud(
+                    path, progress=lambda f, m="", a=share: progress(a[0] + f * (a[1] - a[0]), m))
+                clouds.append(_import_frame(cloud, self.units, self.up_axis))
             t1 = time.perf_counter()
             objects = []
             try:
-                for cloud in clouds:
-                    objects.append(bridge.point_cloud_to_object(
+                for cloud, frame in clouds:
+                    obj = bridge.point_cloud_to_object(
                         cloud, display_ratio=self.display_ratio, point_radius=self.point_radius,
-                        seed=self.seed, scene=context.scene))
+                        seed=self.seed, scene=context.scene)
+                    objects.append(obj)
+                    obj["indoor_frame"] = json.dumps(frame, default=str)  # units and up axis: what was done
             except BaseException:
                 bridge.remove_objects(objects)
                 raise
-        except IndoorError as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
+        except Exception as e:
+            return _fail(self, e, path)
         finally:
             wm.progress_end()
         t2 = time.perf_counter()
@@ -130,10 +167,13 @@ class INDOOR_OT_import_scan(bpy.types.Operator, ImportHelper):
                     view_layer.objects.active = obj
                 except RuntimeError:  # the Scan collection is excluded from this view layer
                     pass
-        n = sum(len(c) for c in clouds)
+        n = sum(len(c) for c, _ in clouds)
         what = os.path.basename(paths[0]) if len(paths) == 1 else f"{len(paths)} files"
+        turned = [f"{os.path.basename(c.source or '')}: {f['units']} -> m, {f['up']} up"
+                  for c, f in clouds if f.get("units", "m") != "m" or f.get("up", "z") != "z"]
         self.report({"INFO"}, f"Imported {n:,} points from {what} "
-                              f"(read {t1 - t0:.2f} s, Blender {t2 - t1:.2f} s)")
+                              f"(read {t1 - t0:.2f} s, Blender {t2 - t1:.2f} s)"
+                              + (f"; rescaled/turned {'; '.join(turned)}" if turned else ""))
         log.info("imported %d points from %s: read %.2f s, Blender %.2f s", n, what, t1 - t0, t2 - t1)
         return {"FINISHED"}
 
@@ -182,9 +222,8 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
         obj = context.active_object
         try:
             cloud = bridge.object_to_cloud(obj)
-        except IndoorError as e:
-            self.report({"ERROR"}, f"{obj.name}: {e}")
-            return {"CANCELLED"}
+        except Exception as e:
+            return _fail(self, e, obj.name)
         self._object_name = obj.name
         self._job = ReconstructJob(cloud, self.method, self.seed, params=self._overrides())
         self._job.start()
@@ -224,13 +263,11 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
                         f"Reconstruction of {self._object_name} cancelled; the scene is unchanged")
             return {"CANCELLED"}
         if job.error is not None:
-            self.report({"ERROR"}, f"{self._object_name}: {job.error}")
-            return {"CANCELLED"}
+            return _fail(self, job.error, self._object_name)
         try:
             by_coll = bridge.model_to_objects(job.model, scene=context.scene)
-        except IndoorError as e:
-            self.report({"ERROR"}, f"{self._object_name}: {e}")
-            return {"CANCELLED"}
+        except Exception as e:
+            return _fail(self, e, self._object_name)
         bridge.refresh_overlays(job.model, scene=context.scene)
         self.report({"INFO"}, _summary(self._object_name, job.model, self.method, by_coll, job.seconds))
         return {"FINISHED"}
@@ -254,9 +291,8 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
             model = reconstruct(cloud, method, params=params, rng=self.seed,
                                 progress=_progress_callback(context))
             by_coll = bridge.model_to_objects(model, scene=context.scene)
-        except IndoorError as e:
-            self.report({"ERROR"}, f"{obj.name}: {e}")
-            return {"CANCELLED"}
+        except Exception as e:
+            return _fail(self, e, obj.name)
         finally:
             wm.progress_end()
         bridge.refresh_overlays(model, scene=context.scene)
@@ -333,10 +369,7 @@ class ReconstructJob:
                                      progress=self._progress, should_stop=self._stop.is_set)
         except Cancelled:
             self.cancelled = True
-        except IndoorError as e:
-            self.error = e
-        except Exception as e:  # an engine bug must not kill the modal loop silently
-            log.exception("reconstruction failed")
+        except Exception as e:  # reported on the main thread; a bug must not kill the loop silently
             self.error = e
         finally:
             self.seconds = time.perf_counter() - t0
@@ -422,9 +455,8 @@ class INDOOR_OT_reclassify(bpy.types.Operator):
         try:
             new = reclassify(model, ids, self.type)
             bridge.apply_edit(model, new, scene=context.scene)
-        except IndoorError as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
+        except Exception as e:
+            return _fail(self, e)
         self.report({"INFO"}, f"Reclassified {len(ids)} shape(s) as {self.type}: "
                               f"{len(new.spaces)} spaces, {len(new.walls)} walls, {len(new.doors)} doors")
         return {"FINISHED"}
@@ -478,9 +510,8 @@ class INDOOR_OT_insert_door(bpy.types.Operator):
         try:
             new = insert_door(model, wall_id, position=position, width=self.width, height=self.height)
             bridge.apply_edit(model, new, scene=context.scene)
-        except IndoorError as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
+        except Exception as e:
+            return _fail(self, e)
         door = next(s for s in new.doors if s.id not in model)
         self.report({"INFO"}, f"Inserted {door.name} ({self.width:.2f} x {self.height:.2f} m) in {wall_id} "
                               f"at {door.attributes['position']:.2f} m")
@@ -501,9 +532,8 @@ class INDOOR_OT_revert_edit(bpy.types.Operator):
     def execute(self, context):
         try:
             model = bridge.restore_previous(scene=context.scene)
-        except IndoorError as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
+        except Exception as e:
+            return _fail(self, e)
         if model is None:
             self.report({"ERROR"}, "no earlier model to go back to")
             return {"CANCELLED"}
@@ -648,13 +678,20 @@ class INDOOR_OT_detect_changes(bpy.types.Operator, ImportHelper):
                 obj = made = bridge.point_cloud_to_object(cloud, scene=context.scene)
             summary = bridge.change_overlay(obj, result, model, scene=context.scene,
                                             mode=settings.change_color_mode if settings else "TYPE")
-        except IndoorError as e:
+        except Exception as e:
             if made is not None:
                 bridge.remove_objects([made])
-            self.report({"ERROR"}, str(e))
+            _fail(self, e)
             return {"CANCELLED"}
         finally:
             wm.progress_end()
+        if not result.registered:  # no change is claimed: say why, and what to do
+            reg = result.summary()["registration"]
+            fit, walls = reg.get("fitness") or 0.0, reg.get("wall_fitness") or 0.0
+            self.report({"WARNING"}, f"The scan does not fit the model (registration fitness {fit:.2f}, "
+                                     f"walls {walls:.2f}): no change claimed; move the scan near the "
+                                     "model and try again")
+            return {"FINISHED"}
         self.report({"INFO"}, f"{summary['new']:,} new of {summary['points']:,} points; "
                               f"{len(summary['redundant'])} of {summary['surfaces']} surfaces redundant")
         return {"FINISHED"}
@@ -694,9 +731,8 @@ class INDOOR_OT_evaluate(bpy.types.Operator, ImportHelper):
             out = bpy.path.abspath(self.out_dir) if self.out_dir else tempfile.mkdtemp(prefix="indoor_eval_")
             files = write_evaluation_outputs(result, out, title=os.path.basename(path))
             summary = bridge.evaluation_overlay(result, reference, model, files["png"], scene=context.scene)
-        except IndoorError as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
+        except Exception as e:
+            return _fail(self, e)
         finally:
             wm.progress_end()
 
@@ -737,9 +773,8 @@ class INDOOR_OT_export_ifc(bpy.types.Operator, ExportHelper):
                 self.report({"ERROR"}, "no reconstructed model in this file: run Reconstruct first")
                 return {"CANCELLED"}
             path = write_ifc(model, bpy.path.abspath(self.filepath), schema=self.schema)
-        except IndoorError as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
+        except Exception as e:
+            return _fail(self, e)
         if self.open_in_bonsai:
             if not bonsai_available():
                 self.report({"WARNING"},

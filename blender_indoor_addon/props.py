@@ -11,6 +11,19 @@ METHOD_ITEMS = (
 )
 """Reconstruction methods (ids of ``engine.reconstruct.METHODS``)."""
 
+UNITS_ITEMS = (
+    ("auto", "Auto", "Detect mm, cm, inch or feet from the extent and the storey heights"),
+    ("m", "Metres", ""), ("mm", "Millimetres", ""), ("cm", "Centimetres", ""),
+    ("in", "Inches", ""), ("ft", "Feet", ""),
+)
+"""Units of a scan file (``--units`` of ``indoor convert``); the scan is rescaled to metres."""
+
+UP_ITEMS = (
+    ("auto", "Auto", "Detect y-up and upside-down scans from the floor and ceiling planes"),
+    ("z", "Z", ""), ("-z", "-Z", ""), ("y", "Y", ""), ("-y", "-Y", ""), ("x", "X", ""), ("-x", "-X", ""),
+)
+"""Which axis of a scan file points up (``--up``); the scan is turned z up."""
+
 EDIT_TYPE_ITEMS = (
     ("interior", "Space", "An interior space (room, corridor)"),
     ("wall", "Wall", "A wall (between spaces)"),
@@ -31,7 +44,7 @@ CHANGE_COLOR_ITEMS = (
 )
 """How a scan shows its change-detection result."""
 
-__all__ = ["INDOOR_PG_settings", "CLASSES", "METHOD_ITEMS", "EDIT_TYPE_ITEMS", "POSITION_ITEMS",
+__all__ = ["INDOOR_PG_settings", "CLASSES", "METHOD_ITEMS", "UNITS_ITEMS", "UP_ITEMS", "EDIT_TYPE_ITEMS", "POSITION_ITEMS",
            "CHANGE_COLOR_ITEMS"]
 
 

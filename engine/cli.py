@@ -16,6 +16,7 @@ from typing import Callable, Optional, Sequence
 
 from . import __version__
 from .errors import IndoorError
+from .jobs import seed_argument
 
 __all__ = ["main", "ConsoleProgress"]
 
@@ -61,20 +62,51 @@ def _emit(args, payload, text_lines: Sequence[str]) -> None:
             print(line)
 
 
-def _run_batch(args, items, label: str, work: Callable):
-    """Run ``work(item, progress)`` for each item; collect results and failures."""
+def _run_batch(args, items, label: str, work: Callable, names: Optional[Sequence[str]] = None):
+    """Run ``work(item, progress)`` (or ``work(item, progress, name)`` with ``names``) for each
+    item inside one error boundary each (:func:`engine.jobs.guarded`): any exception becomes a
+    one-line error naming the file and its kind, printed at once, and the batch goes on.
+    Ctrl-C or SIGTERM stops it; what finished is returned with ``interrupted`` set.
+
+    Returns
+    -------
+    (results, failures, interrupted) : (list, list[Failure], bool)
+    """
+    from .jobs import guarded
+
     results, failures = [], []
-    for item in items:
+    debug = getattr(args, "debug", False)
+
+    def report(f):
+        print(f"error: {f.message}", file=sys.stderr)
+        if debug and f.traceback:
+            print(f.traceback, file=sys.stderr, end="")
+
+    interrupted = False
+    for i, item in enumerate(items):
         bar = ConsoleProgress(f"{label} {item}", quiet=args.quiet or args.json)
         try:
-            results.append(work(item, bar))
-        except IndoorError as e:
-            msg = str(e) if str(item) in str(e) else f"{item}: {e}"  # always name the file
-            failures.append({"file": str(item), "error": msg})
-            print(f"error: {msg}", file=sys.stderr)
+            call = (lambda: work(item, bar, names[i])) if names is not None else (lambda: work(item, bar))
+            result, failure = guarded(item, call, debug=debug, on_failure=report)
+        except KeyboardInterrupt:
+            interrupted = True
+            break
         finally:
             bar.close()
-    return results, failures
+        if failure is None:
+            results.append(result)
+        else:
+            failures.append(failure)
+    return results, failures, interrupted
+
+
+def _batch_exit(failures, interrupted: bool) -> int:
+    from .jobs import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK
+
+    if interrupted:
+        print("interrupted: the files finished before it are intact", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    return EXIT_FAILED if failures else EXIT_OK
 
 
 # --------------------------------------------------------------------------- info
@@ -91,7 +123,7 @@ def cmd_info(args) -> int:
         cloud = read_point_cloud(path, progress=bar)
         return cloud.summary()
 
-    results, failures = _run_batch(args, args.scans, "reading", work)
+    results, failures, interrupted = _run_batch(args, args.scans, "reading", work)
     lines = []
     for r in results:
         lo, hi = r["bounds_min"], r["bounds_max"]
@@ -104,42 +136,72 @@ def cmd_info(args) -> int:
             f"  mean spacing  {r['mean_spacing_m'] * 1000:.1f} mm",
             f"  scans         {r['scans']}",
         ]
+        if r.get("strays"):
+            clo, chi = r["core_bounds_min"], r["core_bounds_max"]
+            lines += [
+                f"  core min      {clo[0]:.3f} {clo[1]:.3f} {clo[2]:.3f}",
+                f"  core max      {chi[0]:.3f} {chi[1]:.3f} {chi[2]:.3f}",
+                f"  strays        {r['strays']:,} points outside the core, up to "
+                f"{r['stray_max_distance_m']:,.1f} m from it",
+            ]
         if r["dropped_nonfinite"]:
             lines.append(f"  dropped       {r['dropped_nonfinite']:,} non-finite rows")
         lines += [f"  warning       {w}" for w in r["warnings"]]
-    _emit(args, {"files": results, "failed": failures}, lines)
-    return 1 if failures else 0
+    _emit(args, {"files": results, "failed": [f.to_dict() for f in failures]}, lines)
+    return _batch_exit(failures, interrupted)
 
 
 # --------------------------------------------------------------------------- convert
 def add_convert(sub) -> None:
-    p = sub.add_parser("convert", help="reconstruct building models from scans, write IFC and JSON")
+    p = sub.add_parser("convert", help="reconstruct building models from scans, write IFC and JSON",
+                       description="Reconstruct each SCAN and write OUT_DIR/<name>.ifc and <name>.json; "
+                                   "OUT_DIR/batch.json maps every input to its outputs and lists the "
+                                   "failures. Inputs that share a name get <name>_2, <name>_3, ... "
+                                   "Exit code: 0 all done, 1 some files failed, 2 usage, 130 interrupted.")
     p.add_argument("scans", nargs="+", metavar="SCAN")
     p.add_argument("-o", "--out", required=True, metavar="OUT_DIR", help="output folder")
     p.add_argument("--method", choices=("auto", "manhattan", "generic"), default="auto",
                    help="auto: Manhattan grammar when the walls are Manhattan, else cells + rjMCMC")
-    p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same model)")
+    p.add_argument("--seed", type=seed_argument, default=0, help="random seed >= 0 (same seed, same model)")
+    p.add_argument("--units", choices=UNITS, default="auto",
+                   help="units of the scan's coordinates; auto detects mm, cm, in, ft from the extent and "
+                        "the storey heights and rescales to metres (default auto)")
+    p.add_argument("--up", choices=UP_AXES, default="auto",
+                   help="which axis of the scan points up; auto detects y-up and upside-down scans from "
+                        "the floor and ceiling planes and rotates them (default auto)")
     p.add_argument("--no-ifc", action="store_true", help="write only the JSON model and report")
     p.set_defaults(func=cmd_convert)
 
 
+UNITS = ("auto", "m", "mm", "cm", "in", "ft")
+UP_AXES = ("auto", "z", "-z", "y", "-y", "x", "-x")
+
+
 def cmd_convert(args) -> int:
+    from .jobs import check_output_dir, output_stems, write_batch_record
     from .reconstruct import convert_file
 
-    def work(path, bar):
-        r = convert_file(path, args.out, method=args.method, seed=args.seed,
-                         write_ifc=not args.no_ifc, progress=bar)
-        return {"source": str(path), "json": r.json_path, "ifc": r.ifc_path, **r.report["summary"],
-                "method": r.model.provenance.method, "seconds": r.report["timings_s"]["total"]}
+    check_output_dir(args.out)  # before any work: a bad folder fails in a second, not after hours
+    names = output_stems(args.scans)
 
-    results, failures = _run_batch(args, args.scans, "converting", work)
-    lines = [f"{r['source']}: {r['spaces']} spaces, {r['walls']} walls, {r['doors']} doors "
+    def work(path, bar, name):
+        r = convert_file(path, args.out, method=args.method, seed=args.seed, name=name,
+                         units=args.units, up=args.up, write_ifc=not args.no_ifc, progress=bar)
+        return {"input": r.report["source"]["path"], "json": r.json_path, "ifc": r.ifc_path,
+                **r.report["summary"], "method": r.model.provenance.method,
+                "seconds": r.report["timings_s"]["total"]}
+
+    results, failures, interrupted = _run_batch(args, args.scans, "converting", work, names=names)
+    if results:  # a record of what was written, never a file for a run that wrote nothing
+        write_batch_record(args.out, results, failures, interrupted=interrupted)
+    lines = [f"{r['input']}: {r['spaces']} spaces, {r['walls']} walls, {r['doors']} doors "
              f"({r['method']}, {r['seconds']:.1f} s) -> {r['ifc'] or r['json']}" for r in results]
     if failures:
         lines.append(f"{len(failures)} of {len(args.scans)} files failed: "
-                     + ", ".join(f["file"] for f in failures))
-    _emit(args, {"converted": results, "failed": failures}, lines)
-    return 1 if failures else 0
+                     + ", ".join(f.file for f in failures))
+    _emit(args, {"converted": results, "failed": [f.to_dict() for f in failures],
+                 "interrupted": interrupted}, lines)
+    return _batch_exit(failures, interrupted)
 
 
 # --------------------------------------------------------------------------- main
@@ -158,10 +220,15 @@ def build_parser() -> argparse.ArgumentParser:
         prog="indoor",
         description="Turn indoor laser scans into building models (IFC), evaluate models "
         "against references and detect changes.",
+        epilog="Exit codes: 0 all done; 1 some files failed (one line each on stderr); 2 usage; "
+        "130 interrupted (Ctrl-C or SIGTERM).",
     )
     parser.add_argument("--version", action="version", version=f"indoor {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log what the engine does")
+    parser.add_argument("--debug", action="store_true", help="print the traceback of any error")
     common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                        help="print the traceback of any error")
     common.add_argument("--quiet", action="store_true", help="no progress bar, no text output")
     common.add_argument("--json", action="store_true", help="print the result as JSON")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -179,18 +246,34 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Run the ``indoor`` command; returns the exit code.
+
+    0 every file done; 1 some files (or the one file) failed, each with a one-line error;
+    2 usage (argparse, or an option's value); 130 interrupted by Ctrl-C or SIGTERM. Any
+    exception is caught here: ``--debug`` prints its traceback.
+    """
+    from .errors import error_kind, error_line
+    from .jobs import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_USAGE, terminate_as_interrupt
+
     parser = build_parser()
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
-                        format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(level=logging.DEBUG if args.debug else logging.INFO if args.verbose
+                        else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     try:
-        return int(args.func(args) or 0)
-    except IndoorError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        with terminate_as_interrupt():
+            return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
+    except Exception as e:  # the outer boundary: one line, never a traceback (unless --debug)
+        print(f"error: {error_line(e)}", file=sys.stderr)
+        if args.debug:
+            import traceback
+
+            traceback.print_exc()
+        # an option's value (an input error about no file) is a usage error
+        usage = isinstance(e, IndoorError) and error_kind(e) == "input" and not getattr(e, "path", None)
+        return EXIT_USAGE if usage else EXIT_FAILED
 
 
 if __name__ == "__main__":

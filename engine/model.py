@@ -370,6 +370,26 @@ class Polyhedron:
             return None
         return b
 
+    def plan_area_perimeter(self) -> tuple[float, float]:
+        """Area (m²) and perimeter (m) of the horizontal projection (the plan outline).
+
+        A prism's footprint directly; any other solid (a room made of several parts, a
+        sloped ceiling) through the union of its projected triangles. 0, 0 for an empty one.
+        """
+        from shapely.geometry import Polygon
+        from shapely.ops import unary_union
+
+        fp = self.footprint()
+        if fp is not None:
+            poly = Polygon(fp)
+        else:
+            v, t = self.triangles()
+            tris = [Polygon(v[i, :2]) for i in t]
+            poly = unary_union([p for p in tris if p.area > 0])
+        if poly.is_empty:
+            return 0.0, 0.0
+        return float(poly.area), float(poly.length)
+
     def volume(self) -> float:
         """Enclosed volume in m³ (divergence theorem; faces must be closed and outward)."""
         vol = 0.0

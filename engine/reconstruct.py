@@ -8,6 +8,7 @@ job for one scan with atomic outputs.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import time
@@ -16,6 +17,7 @@ from typing import Optional
 
 import numpy as np
 
+from .errors import InputError, ReconstructionError
 from .model import BuildingModel
 from .pointcloud import PointCloud
 from .progress import Progress
@@ -61,9 +63,18 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
     Returns
     -------
     BuildingModel; ``provenance.parameters["method_choice"]`` records how auto chose.
+
+    Raises
+    ------
+    ReconstructionError
+        A degenerate cloud (:func:`engine.segmentation.frame.check_degenerate`), data that
+        give no storey or wall, or a result without any space.
     """
+    from .segmentation.frame import check_degenerate
+
     if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, not {method!r}")
+        raise InputError(f"method must be one of {', '.join(METHODS)}, not {method!r}")
+    check_degenerate(cloud)  # flat, a line, identical points, noise: fail in a second
     p = Progress.wrap(progress, should_stop)
     choice = {}
     if method == "auto":
@@ -76,6 +87,10 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
     else:
         from .grammar.generic import reconstruct_generic as run
     model = run(cloud, params, rng=rng, progress=p.sub(0.1 if choice else 0.0, 1.0))
+    if not model.spaces:
+        raise ReconstructionError(
+            f"no space found ({model.provenance.method} method): the scan shows no closed room "
+            "(floor, ceiling and walls around it)", cloud.source or None)
     if choice:
         prov = model.provenance
         model = model.with_(provenance=prov.__class__(
@@ -85,15 +100,11 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
 
 
 def _space_facts(model: BuildingModel, s) -> dict:
-    fp = s.footprint()
-    area = None
-    if fp is not None:
-        x, y = fp[:, 0], fp[:, 1]
-        area = float(abs(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) / 2)
+    area, _ = s.geometry.plan_area_perimeter()
     lo, hi = s.bounds
     return {
         "id": s.id, "name": s.name, "storey": s.storey,
-        "floor_area_m2": None if area is None else round(area, 3),
+        "floor_area_m2": round(area, 3),
         "height_m": round(float(hi[2] - lo[2]), 3),
         "volume_m3": round(s.geometry.volume(), 3),
         "bounds_min": [round(float(v), 3) for v in lo], "bounds_max": [round(float(v), 3) for v in hi],
@@ -135,40 +146,81 @@ class ConvertResult:
 
 def convert_file(path: str | os.PathLike, out_dir: str | os.PathLike, *, method: str = "auto",
                  seed: int = 0, write_ifc: bool = True, params=None, progress=None,
-                 should_stop=None) -> ConvertResult:
+                 should_stop=None, name: Optional[str] = None, units: str = "auto",
+                 up: str = "auto") -> ConvertResult:
     """Read one scan, reconstruct, write ``<name>.json`` (model + report) and ``<name>.ifc``.
 
-    Both outputs are written to temporary names and moved into place, so a failure leaves
-    no half-written file. ``<name>.json`` is the model's JSON (readable with
-    :meth:`BuildingModel.from_json`) with an extra ``report`` key.
-    """
-    from .io import read_point_cloud
+    The output folder is checked first (:func:`engine.jobs.check_output_dir`), so a folder
+    that cannot be written fails before any work. The scan is then checked for degenerate
+    geometry and brought to metres with z up (``units``, ``up``: ``"auto"`` detects them,
+    see :func:`engine.segmentation.frame.normalize_frame`); what was done is recorded in
+    ``provenance.parameters["frame"]``. Both outputs are written to temporary names and
+    moved into place, and the IFC is removed again when the JSON cannot be written, so a
+    failure leaves no half-written result. ``<name>.json`` is the model's JSON (readable
+    with :meth:`BuildingModel.from_json`) with an extra ``report`` key.
 
+    Parameters
+    ----------
+    name : str, optional
+        Output file stem; default the scan's stem (a batch passes distinct names, see
+        :func:`engine.jobs.output_stems`).
+
+    Raises
+    ------
+    InputError, ReconstructionError, OutputError
+        See :mod:`engine.errors`; a model without any space is a ReconstructionError.
+    """
+    import json
+
+    from .fileutil import atomic_write_text
+    from .io import read_point_cloud
+    from .jobs import check_output_dir
+    from .segmentation.frame import normalize_frame
+
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
+        raise InputError(f"the seed must be a whole number >= 0, not {seed!r}")
+    if method not in METHODS:
+        raise InputError(f"method must be one of {', '.join(METHODS)}, not {method!r}")
+    check_output_dir(out_dir)
     p = Progress.wrap(progress, should_stop)
     t0 = time.perf_counter()
     cloud = read_point_cloud(path, progress=p.sub(0.0, 0.1))
     t_read = time.perf_counter() - t0
+    cloud, frame = normalize_frame(cloud, units=units, up=up)
     model = reconstruct(cloud, method, params=params, rng=seed, progress=p.sub(0.1, 0.9))
-    name = os.path.splitext(os.path.basename(os.fspath(path)))[0]
-    model = model.with_(name=model.name or name)
+    name = name or os.path.splitext(os.path.basename(os.fspath(path)))[0]
+    prov = model.provenance
+    model = model.with_(name=model.name or name, provenance=prov.__class__(
+        prov.method, {**prov.parameters, "frame": frame}, prov.seed, prov.timings, prov.trace,
+        prov.source, prov.software))
     report = model_report(model)
-    report["source"] = {"path": os.fspath(path), "points": len(cloud), "read_s": round(t_read, 3)}
+    report["source"] = {"path": _printable(path), "points": len(cloud), "read_s": round(t_read, 3),
+                        "frame": frame, "warnings": list(cloud.warnings)}
     os.makedirs(out_dir, exist_ok=True)
-    ifc_path = None
-    if write_ifc:
-        from .ifc import write_ifc as _write_ifc
-
-        p(0.92, "writing IFC")
-        ifc_path = os.path.join(out_dir, name + ".ifc")
-        _write_ifc(model, ifc_path)
-    report["timings_s"] = {"read": round(t_read, 3), "total": round(time.perf_counter() - t0, 3)}
-    import json
-
-    from .fileutil import atomic_write_text
-
-    data = model.to_dict()
-    data["report"] = report
+    ifc_path = written = None
     json_path = os.path.join(out_dir, name + ".json")
-    atomic_write_text(json_path, json.dumps(data))
+    try:  # the pair is written whole or not at all (an interrupt between the two included)
+        if write_ifc:
+            from .ifc import write_ifc as _write_ifc
+
+            p(0.92, "writing IFC")
+            ifc_path = os.path.join(out_dir, name + ".ifc")
+            _write_ifc(model, ifc_path)
+            written = ifc_path
+        report["timings_s"] = {"read": round(t_read, 3), "total": round(time.perf_counter() - t0, 3)}
+        data = model.to_dict()
+        data["report"] = report
+        atomic_write_text(json_path, json.dumps(data))
+    except BaseException:
+        if written is not None:
+            with contextlib.suppress(OSError):
+                os.remove(written)
+        raise
     p(1.0, "done")
     return ConvertResult(os.fspath(path), model, report, json_path, ifc_path)
+
+
+def _printable(path) -> str:
+    from .errors import _path_text
+
+    return _path_text(path)

@@ -8,8 +8,11 @@ For each scan: ``engine.reconstruct.convert_file`` writes ``DIR/<name>.ifc`` and
 scene, the bridge adds the model (collections Spaces, Walls, ..., hidden Cells), saved as
 ``DIR/<name>.blend``; then a preview ``DIR/<name>.png`` is rendered (Workbench by default,
 headless; the demo's render: a top view cut below the ceiling and an oblique view). A bad
-file is reported on one line and the batch goes on; ``DIR/batch.json`` lists what succeeded
-and what failed. Exit code 0 only when every scan succeeded.
+file is reported on one line (any error: an engine error or a bug, ``--debug`` for the
+traceback) and the batch goes on; ``DIR/batch.json`` maps each input to its outputs and lists
+the failures with their kind. Inputs that share a name get ``<name>_2``, ... The output folder
+is checked before any work. Exit code: 0 all done, 1 some failed, 2 usage, 130 interrupted
+(Ctrl-C or SIGTERM; the files finished before it stay intact).
 """
 from __future__ import annotations
 
@@ -52,7 +55,12 @@ def parse_args(argv):
     p.add_argument("scans", nargs="+", help="scan files")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--method", choices=("auto", "manhattan", "generic"), default="auto")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="random seed >= 0")
+    p.add_argument("--units", default="auto", choices=("auto", "m", "mm", "cm", "in", "ft"),
+                   help="units of the scans (auto: detected, rescaled to metres)")
+    p.add_argument("--up", default="auto", choices=("auto", "z", "-z", "y", "-y", "x", "-x"),
+                   help="up axis of the scans (auto: detected and rotated to z up)")
+    p.add_argument("--debug", action="store_true", help="print the traceback of any error")
     p.add_argument("--no-ifc", action="store_true", help="skip the IFC file")
     p.add_argument("--engine", choices=("workbench", "cycles"), default="workbench", help="preview renderer")
     p.add_argument("--resolution", type=int, default=600, help="height of the preview, pixels (0: none)")
@@ -62,25 +70,25 @@ def parse_args(argv):
     return p.parse_args(argv)
 
 
-def convert_one(pkg, scan, args):
-    """IFC + JSON through the engine, then the .blend with the scan's point mesh and the model."""
+def convert_one(pkg, scan, args, name):
+    """IFC + JSON through the engine, then the .blend with the scan's point mesh and the model;
+    every output is named ``<name>.*`` (distinct per input, see ``engine.jobs.output_stems``)."""
     import bpy
 
     reconstruct = importlib.import_module(PACKAGE + ".engine.reconstruct")
     atomic_path = pkg.engine.fileutil.atomic_path
     t0 = time.perf_counter()
-    result = reconstruct.convert_file(scan, args.out, method=args.method, seed=args.seed,
-                                      write_ifc=not args.no_ifc)
+    result = reconstruct.convert_file(scan, args.out, method=args.method, seed=args.seed, name=name,
+                                      units=args.units, up=args.up, write_ifc=not args.no_ifc)
     t1 = time.perf_counter()
     bpy.ops.wm.read_homefile(app_template="", use_factory_startup=True)
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj, do_unlink=True)
     res = bpy.ops.indoor.import_scan(filepath=os.path.abspath(scan))
     if res != {"FINISHED"}:
-        raise RuntimeError(f"{scan}: import into Blender failed")
+        raise RuntimeError("import into Blender failed")
     bridge = importlib.import_module(PACKAGE + ".blender_indoor_addon.bridge")
     bridge.model_to_objects(result.model, scene=bpy.context.scene)
-    name = os.path.splitext(os.path.basename(scan))[0]
     blend = os.path.join(args.out, name + ".blend")
     with atomic_path(blend, suffix=".blend") as tmp:
         os.remove(tmp)  # else Blender keeps the empty placeholder as a ".blend1" backup
@@ -93,7 +101,7 @@ def convert_one(pkg, scan, args):
                  "scan_object": bpy.context.view_layer.objects.active}
         demo.stage_render(state)
         png = os.path.join(args.out, name + ".png")
-    return {"scan": scan, "ifc": result.ifc_path, "json": result.json_path, "blend": blend, "png": png,
+    return {"input": scan, "ifc": result.ifc_path, "json": result.json_path, "blend": blend, "png": png,
             "convert_s": round(t1 - t0, 3), "blender_s": round(t2 - t1, 3),
             "render_s": round(time.perf_counter() - t2, 3)}
 
@@ -119,24 +127,47 @@ def main(argv=None):
         if os.path.isdir(venv_site):
             site.addsitedir(venv_site)
     pkg = load_package()
+    jobs = importlib.import_module(PACKAGE + ".engine.jobs")
     errors = importlib.import_module(PACKAGE + ".engine.errors")
-    os.makedirs(args.out, exist_ok=True)
-    pkg.register()
-    done, failed = [], []
+    if args.seed < 0:
+        log.error("error: input error: --seed must be a whole number >= 0, not %d", args.seed)
+        return jobs.EXIT_USAGE
     try:
-        for scan in args.scans:
-            try:
-                done.append(convert_one(pkg, scan, args))
-                log.info("ok: %s", scan)
-            except (errors.IndoorError, RuntimeError) as e:
-                failed.append({"scan": scan, "error": str(e)})
-                log.error("failed: %s", e)
+        jobs.check_output_dir(args.out)  # before any work
+    except errors.IndoorError as e:
+        log.error("error: %s", errors.error_line(e))
+        return jobs.EXIT_FAILED
+    names = jobs.output_stems(args.scans)
+    done, failed, interrupted = [], [], False
+
+    def report(f):
+        log.error("failed: %s", f.message)
+        if args.debug and f.traceback:
+            log.error("%s", f.traceback)
+
+    pkg.register()
+    try:
+        with jobs.terminate_as_interrupt():
+            for scan, name in zip(args.scans, names):
+                result, failure = jobs.guarded(scan, lambda s=scan, n=name: convert_one(pkg, s, args, n),
+                                               debug=args.debug, on_failure=report)
+                if failure is None:
+                    done.append(result)
+                    log.info("ok: %s", scan)
+                else:
+                    failed.append(failure)
+    except KeyboardInterrupt:
+        interrupted = True
+        log.error("interrupted: the files finished before it are intact")
     finally:
         pkg.unregister()  # the bpy module hangs at exit with classes still registered
-    pkg.engine.fileutil.atomic_write_text(
-        os.path.join(args.out, "batch.json"), json.dumps({"done": done, "failed": failed}, indent=2) + "\n")
+    if done or len(args.scans) > 1:
+        os.makedirs(args.out, exist_ok=True)
+        jobs.write_batch_record(args.out, done, failed, interrupted=interrupted)
     log.info("%d converted, %d failed", len(done), len(failed))
-    return 0 if not failed else 1
+    if interrupted:
+        return jobs.EXIT_INTERRUPTED
+    return jobs.EXIT_OK if not failed else jobs.EXIT_FAILED
 
 
 if __name__ == "__main__":

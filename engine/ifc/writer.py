@@ -471,12 +471,13 @@ class _Writer:
         return f
 
     def _provenance(self, project):
+        """How the model was made. Only what the input and the seed determine: the timings
+        stay in the JSON report, so the same scan and seed give the same IFC."""
         pv = self.model.provenance
         self._pset(project, PSET_PROVENANCE, {
             "Method": pv.method or None,
             "Seed": None if pv.seed is None else int(pv.seed),
             "Parameters": dumps(pv.parameters),
-            "Timings": dumps(pv.timings),
             "Trace": dumps(pv.trace) if pv.trace else None,
             "Source": pv.source or None,
             "Software": pv.software or None,
@@ -561,7 +562,7 @@ class _Writer:
             self._shape_psets(e, s)
             if s.type == ShapeType.INTERIOR:
                 zmin, zmax = g.bounds[:, 2]
-                fa, per = _footprint_area_perimeter(g)
+                fa, per = g.plan_area_perimeter()
                 vol = g.volume()
                 self._qto(e, "Qto_SpaceBaseQuantities", {
                     "Height": zmax - zmin, "GrossFloorArea": fa, "NetFloorArea": fa, "GrossPerimeter": per,
@@ -612,7 +613,7 @@ class _Writer:
                     "NetSideArea": max(length * height - hole_area, 0.0), "GrossVolume": vol,
                     "NetVolume": max(vol - hole_area * thick, 0.0)})
             else:
-                fa, per = _footprint_area_perimeter(g)
+                fa, per = g.plan_area_perimeter()
                 self._qto(e, "Qto_SlabBaseQuantities", {
                     "Width": zmax - zmin, "GrossArea": fa, "NetArea": fa, "Perimeter": per,
                     "GrossVolume": vol, "NetVolume": vol})
@@ -782,21 +783,6 @@ def _clean_ring(ring: np.ndarray, tol: float = _SAME_POINT) -> Optional[np.ndarr
     keep = np.linalg.norm(r - np.roll(r, 1, axis=0), axis=1) > tol
     r = r[keep]
     return r if len(r) >= 3 else None
-
-
-def _footprint_area_perimeter(g: Polyhedron) -> tuple[float, float]:
-    """Area (m²) and perimeter (m) of the horizontal projection of ``g``."""
-    from shapely.geometry import Polygon
-    from shapely.ops import unary_union
-
-    fp = g.footprint()
-    if fp is not None:
-        poly = Polygon(fp)
-    else:
-        v, t = g.triangles()
-        tris = [Polygon(v[i, :2]) for i in t]
-        poly = unary_union([p for p in tris if p.area > 0])
-    return float(poly.area), float(poly.length)
 
 
 def _door_wh(d: Shape) -> tuple[float, float]:

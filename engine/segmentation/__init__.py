@@ -3,6 +3,9 @@
 Steps (each takes a frozen parameters dataclass from :mod:`.params` and, where the work is
 long, ``progress``/``should_stop``):
 
+* :func:`normalize_frame` — before everything: degenerate clouds refused
+  (:func:`check_degenerate`), the up axis (:func:`detect_up`) and the units
+  (:func:`detect_units`) detected or given, the cloud brought to metres with z up;
 * :func:`clean` — non-finite rows, voxel downsampling to a *working cloud* (representative
   input points, so attributes and truth fields survive; the voxel grows so the working
   cloud stays ≤ ``max_working_points``), statistical outliers;
@@ -33,6 +36,8 @@ from .cleaning import clean, drop_nonfinite, estimate_normals, remove_statistica
 from .params import (AlignParams, CellParams, ClassifyParams, CleanParams, NormalParams, PlaneParams,
                      PreprocessParams, StoreyParams)
 from .storeys import Layer, detect_layers, detect_storeys
+from .frame import (UNITS, UP_AXES, FrameParams, UnitGuess, UpGuess, check_degenerate, detect_units,
+                    detect_up, normalize_frame, up_rotation)
 from .planes import Plane, extract_planes
 from .cells import (Cell, CellComplex, CellFace, ceiling_levels, decompose_cells, is_structural_wall,
                     wall_segments)
@@ -45,6 +50,8 @@ __all__ = [
     "AlignParams", "CellParams", "ClassifyParams", "CleanParams", "NormalParams", "PlaneParams",
     "PreprocessParams", "StoreyParams",
     "Layer", "detect_layers", "detect_storeys",
+    "UNITS", "UP_AXES", "FrameParams", "UnitGuess", "UpGuess", "check_degenerate", "detect_units",
+    "detect_up", "normalize_frame", "up_rotation",
     "Plane", "extract_planes",
     "Cell", "CellComplex", "CellFace", "ceiling_levels", "decompose_cells", "is_structural_wall", "wall_segments",
     "Preprocessed", "preprocess",

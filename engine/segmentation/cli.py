@@ -16,9 +16,10 @@ import math
 import os
 import sys
 
-from ..errors import IndoorError
 
 __all__ = ["add_segment", "cmd_segment", "segmentation_report"]
+
+from ..jobs import seed_argument
 
 log = logging.getLogger(__name__)
 
@@ -28,7 +29,7 @@ def add_segment(sub) -> None:
     p = sub.add_parser("segment", help="preprocess scans: align, storeys, planes and the cell complex")
     p.add_argument("scans", nargs="+", metavar="SCAN", help="point-cloud files")
     p.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=seed_argument, default=0, help="random seed (default 0)")
     p.add_argument("--voxel", type=float, default=None, metavar="M",
                    help="voxel of the working cloud in metres (default 0.03, enlarged for big clouds)")
     p.add_argument("--no-manhattan", action="store_true",
@@ -88,28 +89,40 @@ def cmd_segment(args) -> int:
     params = PreprocessParams(align_manhattan=not args.no_manhattan)
     if args.voxel is not None:
         params = replace(params, clean=replace(params.clean, voxel_size=float(args.voxel)))
-    os.makedirs(args.out, exist_ok=True)
+    from ..jobs import check_output_dir, guarded, output_stems
+
+    check_output_dir(args.out)
     done, failed = [], []
-    for path in args.scans:
+
+    def report(f):
+        print(f"error: {f.message}", file=sys.stderr)
+        if getattr(args, "debug", False) and f.traceback:
+            print(f.traceback, file=sys.stderr, end="")
+
+    def work(path, stem, bar):
+        cloud = read_point_cloud(path)
+        res = preprocess(cloud, params, rng=args.seed, progress=bar)
+        os.makedirs(args.out, exist_ok=True)
+        ply = os.path.join(args.out, f"{stem}_segmented.ply")
+        js = os.path.join(args.out, f"{stem}_segmentation.json")
+        write_ply(ply, res.working)
+        rep = segmentation_report(res)
+        rep["source"] = path
+        atomic_write_text(js, json.dumps(rep, indent=1, default=_plain))
+        return {"file": path, "ply": ply, "json": js, "storeys": len(res.storeys),
+                "planes": len(res.planes), "cells": len(res.cells.cells) if res.cells else 0}
+
+    for path, stem in zip(args.scans, output_stems(args.scans)):
         bar = ConsoleProgress(f"segment {os.path.basename(path)}", quiet=args.quiet or args.json)
         try:
-            cloud = read_point_cloud(path)
-            res = preprocess(cloud, params, rng=args.seed, progress=bar)
-            stem = os.path.splitext(os.path.basename(path))[0]
-            ply = os.path.join(args.out, f"{stem}_segmented.ply")
-            js = os.path.join(args.out, f"{stem}_segmentation.json")
-            write_ply(ply, res.working)
-            rep = segmentation_report(res)
-            rep["source"] = path
-            atomic_write_text(js, json.dumps(rep, indent=1, default=_plain))
-            done.append({"file": path, "ply": ply, "json": js, "storeys": len(res.storeys),
-                         "planes": len(res.planes), "cells": len(res.cells.cells) if res.cells else 0})
-        except IndoorError as e:
-            msg = str(e) if path in str(e) else f"{path}: {e}"
-            failed.append({"file": path, "error": msg})
-            print(f"error: {msg}", file=sys.stderr)
+            result, failure = guarded(path, lambda: work(path, stem, bar),
+                                      debug=getattr(args, "debug", False), on_failure=report)
         finally:
             bar.close()
+        if failure is None:
+            done.append(result)
+        else:
+            failed.append(failure.to_dict())
     if args.json:
         print(json.dumps({"segmented": done, "failed": failed}, indent=2))
     elif not args.quiet:

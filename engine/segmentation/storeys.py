@@ -77,11 +77,46 @@ def _cells(xy: np.ndarray, origin: np.ndarray, cell: float, dims) -> np.ndarray:
     return q[:, 0] * dims[1] + q[:, 1]
 
 
+def _histogram_peaks(zh: np.ndarray, params: StoreyParams) -> tuple[float, list]:
+    """(z0, peak bins) of the z histogram of ``zh`` smoothed by [¼, ½, ¼].
+
+    Sparse: only occupied bins and their neighbours are looked at, so an outlier far away
+    costs nothing (a dense histogram grows with the height range, not with the points).
+    A histogram of one or two bins (a flat cloud) is handled like any other.
+    """
+    z0 = float(zh.min())
+    nb = int(np.ceil((zh.max() - z0) / params.bin_size)) + 1
+    ub, cnt = np.unique(((zh - z0) / params.bin_size).astype(np.int64), return_counts=True)
+    cand = np.unique(np.clip(np.concatenate([ub - 1, ub, ub + 1]), 0, nb - 1))
+
+    def at(offset):
+        j = np.searchsorted(ub, cand + offset)
+        jj = np.minimum(j, len(ub) - 1)
+        return np.where((j < len(ub)) & (ub[jj] == cand + offset), cnt[jj], 0).astype(np.float64)
+
+    smooth = 0.25 * at(-1) + 0.5 * at(0) + 0.25 * at(1)
+    order = np.argsort(-smooth, kind="stable")
+    gap_bins = max(1, int(round(params.min_layer_gap / params.bin_size)))
+    peaks: list = []
+    floor_count = _PEAK_FLOOR * smooth.max()
+    for j in order:
+        if smooth[j] < floor_count or len(peaks) >= _MAX_PEAKS:
+            break
+        b = int(cand[j])
+        if any(abs(b - q) <= gap_bins for q in peaks):
+            continue
+        peaks.append(b)
+    return z0, peaks
+
+
 def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> list[Layer]:
     """Candidate floor/ceiling layers of an aligned cloud with normals (see module doc).
 
     Returns every histogram layer with enough points, typed "floor", "ceiling" or "other"
-    (too small, or no contrast), sorted by z.
+    (too small, or no contrast), sorted by z; an empty list when fewer than
+    ``min_layer_points`` points are horizontal. A flat cloud gives one layer (no storey:
+    :func:`detect_storeys` then raises). Cost follows the number of points: the histogram
+    and the occupancy grid are sparse.
     """
     xyz = cloud.xyz
     nz = np.abs(cloud.normals[:, 2].astype(np.float64))
@@ -89,28 +124,25 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
     zh = xyz[hor, 2]
     if len(zh) < params.min_layer_points:
         return []
-    z0 = zh.min()
-    nb = int(np.ceil((zh.max() - z0) / params.bin_size)) + 1
-    hist = np.bincount(((zh - z0) / params.bin_size).astype(np.int64), minlength=nb).astype(np.float64)
-    smooth = np.convolve(hist, [0.25, 0.5, 0.25], mode="same")
-    order = np.argsort(-smooth, kind="stable")
-    taken = np.zeros(nb, bool)
-    gap_bins = max(1, int(round(params.min_layer_gap / params.bin_size)))
-    peaks = []
-    floor_count = _PEAK_FLOOR * smooth.max()
-    for b in order:
-        if smooth[b] < floor_count or len(peaks) >= _MAX_PEAKS:
-            break
-        if taken[b]:
-            continue
-        peaks.append(b)
-        taken[max(0, b - gap_bins):b + gap_bins + 1] = True
-    # footprint of the building
+    z0, peaks = _histogram_peaks(zh, params)
+    # footprint of the building: occupied cells only, numbered 0..k-1
     cell = params.grid_cell
     origin = xyz[:, :2].min(axis=0)
     dims = (np.floor((xyz[:, :2].max(axis=0) - origin) / cell).astype(np.int64) + 1)
     all_cells = _cells(xyz[:, :2], origin, cell, dims)
-    footprint = np.unique(all_cells).size * cell * cell
+    occupied, cell_of = np.unique(all_cells, return_inverse=True)
+    cell_of = cell_of.reshape(-1)
+    footprint = len(occupied) * cell * cell
+    # the occupied 4-neighbours of every occupied cell (-1: none), for the rim dilation
+    cx, cy = np.divmod(occupied, dims[1])
+    neighbours = np.full((len(occupied), 4), -1, np.int64)
+    for j, (dx, dy) in enumerate(((1, 0), (-1, 0), (0, 1), (0, -1))):
+        nx, ny = cx + dx, cy + dy
+        ok = (nx >= 0) & (nx < dims[0]) & (ny >= 0) & (ny < dims[1])
+        key = nx * dims[1] + ny
+        pos = np.minimum(np.searchsorted(occupied, key), len(occupied) - 1)
+        hit = ok & (occupied[pos] == key)
+        neighbours[hit, j] = pos[hit]
     nonhor = ~hor & (nz <= np.cos(params.angle_tolerance))
     sp = cloud.scanner_positions
     scanner_z = None if sp is None or not np.isfinite(sp).all(axis=1).any() else sp[np.isfinite(sp).all(axis=1), 2]
@@ -127,16 +159,13 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
         cnt = int(in_layer.sum())
         if cnt < params.min_layer_points:
             continue
-        occ = np.zeros(int(dims[0] * dims[1]), bool)
-        occ[all_cells[in_layer]] = True
+        occ = np.zeros(len(occupied), bool)
+        occ[cell_of[in_layer]] = True
         area = occ.sum() * cell * cell
-        grid = occ.reshape(int(dims[0]), int(dims[1]))
-        dil = grid.copy()  # one-cell dilation so walls on the layer's rim count
-        dil[1:, :] |= grid[:-1, :]
-        dil[:-1, :] |= grid[1:, :]
-        dil[:, 1:] |= grid[:, :-1]
-        dil[:, :-1] |= grid[:, 1:]
-        inside = dil.reshape(-1)[all_cells] & nonhor
+        dil = occ.copy()  # one-cell dilation so walls on the layer's rim count
+        rim = neighbours[occ].reshape(-1)
+        dil[rim[rim >= 0]] = True
+        inside = dil[cell_of] & nonhor
         dz = xyz[inside, 2] - z
         above = int(np.sum((dz > hw) & (dz <= hw + params.side_window)))
         below = int(np.sum((dz < -hw) & (dz >= -hw - params.side_window)))

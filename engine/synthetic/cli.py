@@ -16,6 +16,8 @@ from .presets import DEFAULT_POINTS, PRESETS, preset, scene_from_plans
 
 __all__ = ["add_synth", "cmd_synth", "write_scene"]
 
+from ..jobs import seed_argument
+
 log = logging.getLogger(__name__)
 
 
@@ -26,7 +28,7 @@ def add_synth(sub) -> None:
                    help=f"one of: {', '.join(PRESETS)}; or a floor-plan JSON file (as written to "
                         "DIR/<preset>_plan.json)")
     p.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=seed_argument, default=0, help="random seed (default 0)")
     p.add_argument("--noise", default="tls",
                    help="tls (σ = 5 mm), mobile (walk through the doors, σ = 2 cm) or a σ in metres")
     p.add_argument("--points", type=int, default=DEFAULT_POINTS,
