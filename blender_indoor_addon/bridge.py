@@ -17,6 +17,8 @@ import logging
 import bpy
 import numpy as np
 
+from ..engine.errors import printable
+
 log = logging.getLogger(__name__)
 
 __all__ = [
@@ -336,12 +338,6 @@ def _fill_mesh(mesh, cloud) -> list[str]:
     return names
 
 
-def _path_text(path) -> str:
-    from ..engine.errors import _path_text as text
-
-    return text(path)
-
-
 def point_cloud_to_object(cloud, name: str | None = None, *, collection: str = SCAN_COLLECTION,
                           display_ratio: float = 1.0, point_radius: float = 0.01, seed: int = 0,
                           scene: bpy.types.Scene | None = None):
@@ -390,7 +386,7 @@ def point_cloud_to_object(cloud, name: str | None = None, *, collection: str = S
         obj = bpy.data.objects.new(name, mesh)
         created.append(("object", obj))
         obj[OFFSET_PROP] = [float(v) for v in cloud.offset]
-        obj[SOURCE_PROP] = _path_text(cloud.source) if cloud.source else ""  # ID strings are UTF-8
+        obj[SOURCE_PROP] = printable(cloud.source) if cloud.source else ""  # ID strings are UTF-8
         obj[COUNT_PROP] = int(len(cloud))
         obj["indoor_attributes"] = names
         ng = points_node_group(created)

@@ -24,6 +24,8 @@ __all__ = [
     "Cancelled",
     "error_kind",
     "error_line",
+    "printable",
+    "is_valid_text",
     "ERROR_KINDS",
 ]
 
@@ -46,7 +48,7 @@ class IndoorError(Exception):
 
     def __init__(self, problem: str = "", path: str | os.PathLike | None = None):
         self.problem = str(problem)
-        self.path = None if path is None else _path_text(path)
+        self.path = None if path is None else printable(path)
         super().__init__(f"{self.path}: {self.problem}" if self.path else self.problem)
 
 
@@ -92,26 +94,30 @@ class Cancelled(IndoorError):
     kind = "cancelled"
 
 
-def _path_text(path) -> str:
-    """A path as printable text: bytes and undecodable names (surrogate escapes) shown
-    with backslash escapes instead of failing later when the message is printed."""
-    p = os.fspath(path)
+def printable(text) -> str:
+    """A path or text as valid UTF-8: the surrogate escapes Python gives the undecodable bytes
+    of a file name (``b"\\xff"`` -> ``"\\udcff"``) become backslash escapes (``"\\xff"``);
+    bytes are decoded as file names; valid text is returned unchanged. Used wherever a name
+    goes into a message, an IFC file or a Blender property."""
+    p = os.fspath(text) if isinstance(text, (os.PathLike, bytes)) else str(text)
     if isinstance(p, bytes):
         p = os.fsdecode(p)
-    if not _has_surrogates(p):
+    if is_valid_text(p):
         return p
-    try:
-        return os.fsencode(p).decode("utf-8", "backslashreplace")
-    except UnicodeError:
+    try:  # surrogate escapes of undecodable bytes -> the bytes, shown as \xNN
+        return p.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # other lone surrogates -> \udNNN
         return p.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
-def _has_surrogates(text: str) -> bool:
+
+def is_valid_text(text: str) -> bool:
+    """Whether ``text`` encodes as UTF-8 (no lone surrogates)."""
     try:
         text.encode("utf-8")
-        return False
-    except UnicodeEncodeError:
         return True
+    except UnicodeEncodeError:
+        return False
 
 
 _OUTPUT_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG, errno.EACCES, errno.EPERM,
@@ -137,7 +143,7 @@ def error_line(exc: BaseException, path: str | os.PathLike | None = None) -> str
     exception's type; ``--debug`` prints its traceback.
     """
     kind = error_kind(exc)
-    name = None if path is None else _path_text(path)
+    name = None if path is None else printable(path)
     if isinstance(exc, IndoorError):
         text = exc.problem if (name and exc.path == name) else str(exc)
         where = exc.path if exc.path and exc.path != name else None
@@ -146,12 +152,12 @@ def error_line(exc: BaseException, path: str | os.PathLike | None = None) -> str
             name = where
     elif isinstance(exc, OSError) and kind == "output":
         where = exc.filename
-        text = f"{exc.strerror or exc}" + (f": {_path_text(where)}" if where else "")
+        text = f"{exc.strerror or exc}" + (f": {printable(where)}" if where else "")
     elif isinstance(exc, MemoryError):
         text = "out of memory"
     else:
         detail = str(exc) or exc.__class__.__name__
         text = f"{exc.__class__.__name__}: {detail} (a bug: please report it with the output of --debug)"
-    text = " ".join(_path_text(text).split())  # one line
+    text = " ".join(printable(text).split())  # one line
     head = f"{name}: " if name else ""
     return f"{head}{kind} error: {text}"

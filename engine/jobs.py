@@ -27,7 +27,7 @@ import traceback
 from dataclasses import dataclass, field
 from typing import Callable, Optional, Sequence
 
-from .errors import OutputError, error_kind, error_line
+from .errors import OutputError, error_kind, error_line, printable
 
 __all__ = ["check_output_dir", "output_stems", "Failure", "guarded", "terminate_as_interrupt",
            "write_batch_record", "seed_argument", "EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERRUPTED"]
@@ -152,18 +152,12 @@ def guarded(path: str | os.PathLike, work: Callable[[], object], *, debug: bool 
         return work(), None
     except Exception as e:  # the error boundary: nothing else may stop a batch
         tb = traceback.format_exc() if debug or error_kind(e) == "internal" else ""
-        failure = Failure(_text(path), error_kind(e), error_line(e, path), tb)
+        failure = Failure(printable(path), error_kind(e), error_line(e, path), tb)
         if error_kind(e) == "internal":
-            log.debug("internal error on %s:\n%s", _text(path), tb)
+            log.debug("internal error on %s:\n%s", printable(path), tb)
         if on_failure is not None:
             on_failure(failure)
         return None, failure
-
-
-def _text(path) -> str:
-    from .errors import _path_text
-
-    return _path_text(path)
 
 
 def _raise_interrupt(signum, frame):

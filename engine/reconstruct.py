@@ -17,7 +17,7 @@ from typing import Optional
 
 import numpy as np
 
-from .errors import InputError, ReconstructionError
+from .errors import InputError, ReconstructionError, printable
 from .model import BuildingModel
 from .pointcloud import PointCloud
 from .progress import Progress
@@ -194,7 +194,7 @@ def convert_file(path: str | os.PathLike, out_dir: str | os.PathLike, *, method:
         prov.method, {**prov.parameters, "frame": frame}, prov.seed, prov.timings, prov.trace,
         prov.source, prov.software))
     report = model_report(model)
-    report["source"] = {"path": _printable(path), "points": len(cloud), "read_s": round(t_read, 3),
+    report["source"] = {"path": printable(path), "points": len(cloud), "read_s": round(t_read, 3),
                         "frame": frame, "warnings": list(cloud.warnings)}
     os.makedirs(out_dir, exist_ok=True)
     ifc_path = written = None
@@ -218,9 +218,3 @@ def convert_file(path: str | os.PathLike, out_dir: str | os.PathLike, *, method:
         raise
     p(1.0, "done")
     return ConvertResult(os.fspath(path), model, report, json_path, ifc_path)
-
-
-def _printable(path) -> str:
-    from .errors import _path_text
-
-    return _path_text(path)

@@ -10,7 +10,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..errors import InputError, MissingDependencyError
+from ..errors import InputError, MissingDependencyError, printable
 
 __all__ = [
     "PSET_PROVENANCE", "PSET_SHAPE", "PSET_SUPPORT", "PSET_STOREY", "WRITABLE_SCHEMAS",
@@ -79,19 +79,9 @@ def rigid_part(transform: np.ndarray, tol: float) -> bool:
 
 
 def safe_text(text) -> str:
-    """``text`` as a string IFC can hold: characters that are not valid Unicode (the surrogate
-    escapes Python gives undecodable bytes of a file name, ``b"\\xff"`` -> ``"\\udcff"``)
-    become backslash escapes (``"\\xff"``); valid text is returned unchanged."""
-    text = str(text)
-    try:
-        text.encode("utf-8")
-        return text
-    except UnicodeEncodeError:
-        pass
-    try:  # surrogate escapes of undecodable bytes -> the bytes, shown as \xNN
-        return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
-    except UnicodeEncodeError:  # other lone surrogates -> \udNNN
-        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+    """``text`` as a string IFC can hold (:func:`engine.errors.printable`): undecodable bytes
+    of a file name become backslash escapes; valid text is returned unchanged."""
+    return printable(text)
 
 
 def global_id(seed, model_name: str, key) -> str:

@@ -26,7 +26,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..errors import FormatError, InputError
+from ..errors import FormatError, InputError, is_valid_text
 from ..model import BuildingModel, Polyhedron, Provenance, Relation, Shape, ShapeType, Storey
 from ..progress import Progress
 from .common import (PSET_PROVENANCE, PSET_SHAPE, PSET_STOREY, PSET_SUPPORT, READABLE_SCHEMAS, check_path,
@@ -144,7 +144,7 @@ def _open(path: str):
     wrapper = ifcopenshell.ifcopenshell_wrapper
     wrapper.get_log()  # drop messages of earlier work: what follows is about this file
     try:
-        if _encodable(path):
+        if is_valid_text(path):
             f = ifcopenshell.open(path)
         else:  # a name with undecodable bytes: ifcopenshell takes UTF-8 names only
             with open(path, "rb") as fh:
@@ -156,14 +156,6 @@ def _open(path: str):
         more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
         raise FormatError(f"syntax error in the IFC file: {errors[0]}{more}", path)
     return f
-
-
-def _encodable(path: str) -> bool:
-    try:
-        path.encode("utf-8")
-        return True
-    except UnicodeEncodeError:
-        return False
 
 
 def _parse_errors(log_text: str) -> list:

@@ -72,6 +72,23 @@ is refused: the decoder allocates a chunk's records at once, and a corrupt size 
 32-bit value) would abort the process on a failed allocation. Real writers use 50,000."""
 
 
+
+def _records(path, f, size: int, pos: int, count: int, head_size: int, length_fmt: str, what: str):
+    """Walk ``count`` (extended) variable-length records from byte ``pos``: yield
+    ``(header bytes, position, payload length)``; FormatError when one is cut or ends beyond
+    the file (``length_fmt`` the payload length's struct format at byte 20 of the header)."""
+    for k in range(count):
+        f.seek(pos)
+        head = f.read(head_size)
+        if len(head) < head_size:
+            raise FormatError(f"truncated: {what}variable-length record {k + 1} of {count:,} is cut", path)
+        length = struct.unpack_from(length_fmt, head, 20)[0]
+        if pos + head_size + length > size:
+            raise FormatError(f"{what}variable-length record {k + 1} ({length:,} bytes) ends beyond the "
+                              "end of the file", path)
+        yield head, pos, length
+        pos += head_size + length
+
 def _check_layout(path: str, size: int) -> None:
     """Check the raw LAS header before laspy reads it: every size laspy or the LAZ decoder
     allocates from (VLR and EVLR counts and lengths, the LAZ chunk size and chunk count)
@@ -100,21 +117,13 @@ def _check_layout(path: str, size: int) -> None:
         if n_vlrs * _VLR_HEADER > size - header_size:
             raise FormatError(f"the header declares {n_vlrs:,} variable-length records, more than the "
                               f"{size:,}-byte file can hold (a corrupt header)", path)
-        pos, chunk_size, laszip = header_size, None, None
-        for k in range(n_vlrs):
-            f.seek(pos)
-            vh = f.read(_VLR_HEADER)
-            if len(vh) < _VLR_HEADER:
-                raise FormatError(f"truncated: variable-length record {k + 1} of {n_vlrs:,} is cut", path)
-            length = struct.unpack_from("<H", vh, 20)[0]
-            if pos + _VLR_HEADER + length > size:
-                raise FormatError(f"variable-length record {k + 1} ({length:,} bytes) ends beyond the end "
-                                  "of the file", path)
+        chunk_size, laszip = None, None
+        for vh, pos, length in _records(path, f, size, header_size, n_vlrs, _VLR_HEADER, "<H", ""):
             if vh[2:16] == b"laszip encoded" and struct.unpack_from("<H", vh, 18)[0] == 22204 \
                     and length >= 16:
+                f.seek(pos + _VLR_HEADER)
                 laszip = f.read(length)
                 chunk_size = struct.unpack_from("<I", laszip, 12)[0]
-            pos += _VLR_HEADER + length
         limit = max(_CHUNK_BYTES_LIMIT, _CHUNK_FILE_RATIO * size)
         if chunk_size is not None and chunk_size != _LASZIP_VARIABLE_CHUNKS:
             if chunk_size * max(record, 1) > limit:
@@ -127,17 +136,8 @@ def _check_layout(path: str, size: int) -> None:
             if n_evlrs and (start > size or n_evlrs * _EVLR_HEADER > size - start):
                 raise FormatError(f"the header declares {n_evlrs:,} extended variable-length records from "
                                   f"byte {start:,}, more than the {size:,}-byte file holds", path)
-            pos = start
-            for k in range(n_evlrs):
-                f.seek(pos)
-                eh = f.read(_EVLR_HEADER)
-                if len(eh) < _EVLR_HEADER:
-                    raise FormatError(f"truncated: extended variable-length record {k + 1} is cut", path)
-                length = struct.unpack_from("<Q", eh, 20)[0]
-                if pos + _EVLR_HEADER + length > size:
-                    raise FormatError(f"extended variable-length record {k + 1} ({length:,} bytes) ends "
-                                      "beyond the end of the file", path)
-                pos += _EVLR_HEADER + length
+            for _ in _records(path, f, size, start, n_evlrs, _EVLR_HEADER, "<Q", "extended "):
+                pass
 
 
 def _is_decoder_panic(e: BaseException) -> bool:
