@@ -1,3 +1,4 @@
+import functools
 import os
 
 import numpy as np
@@ -15,3 +16,44 @@ def data_dir():
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+# ------------------------------------------------------------ shared scenes and models
+# Simulated scans and their reconstructions that several test files use are built once per
+# session, keyed by everything that makes them (preset, seed, noise, point count; method and
+# seed of the reconstruction). Tests must treat what they get as read-only.
+
+@functools.lru_cache(maxsize=None)
+def _scene(name: str, seed: int, noise, points: int):
+    from engine.synthetic import preset
+
+    return preset(name, seed=seed, noise=noise, target_points=points)
+
+
+@functools.lru_cache(maxsize=None)
+def _model(method: str, name: str, seed: int, noise, points: int, rng: int = 0):
+    cloud = _scene(name, seed, noise, points).cloud
+    if method == "manhattan":
+        from engine.grammar import reconstruct_manhattan
+
+        return reconstruct_manhattan(cloud, rng=rng)
+    if method == "generic":
+        from engine.grammar.generic import reconstruct_generic
+
+        return reconstruct_generic(cloud, rng=rng)
+    raise ValueError(f"unknown method {method!r}")
+
+
+@pytest.fixture(scope="session")
+def synthetic_scene():
+    """``synthetic_scene(name, seed, noise, points)``: the ``engine.synthetic`` preset scene,
+    simulated once per test session."""
+    return _scene
+
+
+@pytest.fixture(scope="session")
+def synthetic_model():
+    """``synthetic_model(method, name, seed, noise, points, rng=0)``: the model
+    ``reconstruct_manhattan`` / ``reconstruct_generic`` makes of that scene's cloud, once
+    per test session."""
+    return _model

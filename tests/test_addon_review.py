@@ -239,9 +239,12 @@ def test_detect_changes_on_active_scan(addon, change_demo):
     change = bu.engine_module("change")
     expect = change.detect_changes(change_demo.truth, bridge.object_to_cloud(scan))
     mesh = scan.data
-    np.testing.assert_array_equal(_attr(mesh, "change_type"), expect.point_type)
-    # the engine's distances, to float precision: two ICP runs (open3d, multithreaded) may
-    # differ in the last bits of a point or two
+    # the engine's result, to float precision: two ICP runs (open3d, multithreaded) may differ
+    # in the last bits, so a point lying at the distance threshold r may fall on the other
+    # side of it; at most 1 in 10 000 points may differ in type (measured: none)
+    got_type = _attr(mesh, "change_type")
+    assert len(got_type) == len(expect.point_type)
+    assert np.count_nonzero(got_type != expect.point_type) <= 1e-4 * len(got_type)
     np.testing.assert_allclose(_attr(mesh, "change_distance"), expect.distance.astype(np.float32), rtol=0, atol=1e-6)
     assert mesh.attributes["change_type"].domain == "POINT"
     # the synthetic truth: points of new structure are mostly classified new, old ones existing
@@ -264,13 +267,16 @@ def test_detect_changes_on_active_scan(addon, change_demo):
     faces = list(scene.collection.children["Changes"].objects)
     assert len(faces) == len(expect.coverage_keys)
     cov = dict(zip(expect.coverage_keys, expect.coverage))
+    same_points = np.array_equal(got_type, expect.point_type)  # then the faces' members agree too
     for o in faces:
-        assert o["coverage"] == pytest.approx(cov[o["indoor_patch"]])
+        if same_points:
+            assert o["coverage"] == pytest.approx(cov[o["indoor_patch"]])
         assert o["indoor_flagged"] == (o["indoor_patch"] in expect.redundant)
-        assert _attr(o.data, "coverage")[0] == pytest.approx(cov[o["indoor_patch"]], abs=1e-6)
+        assert _attr(o.data, "coverage")[0] == pytest.approx(o["coverage"], abs=1e-6)
     assert sum(o["indoor_flagged"] for o in faces) == len(expect.redundant) >= 1
     summary = json.loads(scene.indoor.change_summary)
-    assert summary["new"] == int(np.sum(expect.point_type == 1)) and summary["redundant"] == expect.redundant
+    # the summary counts the operator's own points (the mesh attribute), not the second run's
+    assert summary["new"] == int(np.sum(got_type == 1)) and summary["redundant"] == expect.redundant
 
 
 def test_detect_changes_from_file_and_bad_file_leaves_scene(addon, change_demo, tmp_path):

@@ -8,6 +8,8 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
+pytestmark = pytest.mark.slow  # each test starts Blender and runs a whole pipeline (5-10 s)
+
 
 def _run(script, args, timeout=300):
     bpy = pytest.importorskip("bpy")
@@ -67,9 +69,10 @@ def test_batch_reports_a_bad_file_and_exits_non_zero(tmp_path):
                 [str(bad), good, "--out", str(out), "--resolution", "60"])
     assert proc.returncode == 1, proc.stderr[-3000:]
     report = json.loads((out / "batch.json").read_text())
-    assert [d["scan"] for d in report["done"]] == [good]  # the batch went on past the bad file
-    assert [f["scan"] for f in report["failed"]] == [str(bad)]
-    assert "broken.ply" in report["failed"][0]["error"]
+    assert [d["input"] for d in report["done"]] == [good]  # the batch went on past the bad file
+    assert [f["file"] for f in report["failed"]] == [str(bad)]
+    assert "broken.ply" in report["failed"][0]["error"] and report["failed"][0]["kind"] == "input"
+    assert "Traceback" not in proc.stderr
     # nothing half-written for the bad file; IFC + JSON + .blend + PNG for the good one
     assert sorted(os.listdir(out)) == ["batch.json", "room_scan2.blend", "room_scan2.ifc", "room_scan2.json",
                                        "room_scan2.png"]

@@ -149,7 +149,9 @@ def test_without_icp_a_shifted_model_reads_as_change(scene):
     # (ICP recovering 5° yaw + 0.3 m shift is tested on the change_demo preset)
     model, scan = scene
     moved = transform_model(model, _rot_z(5.0, (0.3, -0.2, 0.0)))
-    bad = detect_changes(moved, scan, ChangeParams(registration=RegistrationParams(enabled=False)))
+    # force: the unregistered result still classifies (without it, it claims no change)
+    params = ChangeParams(registration=RegistrationParams(enabled=False), force=True)
+    bad = detect_changes(moved, scan, params)
     truth = scan.fields["new"] == 1
     assert np.mean(bad.point_type == NEW) > 3 * np.mean(truth)
     assert len(bad.redundant) > 2

@@ -53,7 +53,11 @@ def test_convert_batch_writes_outputs_and_names_the_bad_file(small_scan, tmp_pat
     result = json.loads(captured.out)
     assert [f["file"] for f in result["failed"]] == [str(bad)]
     assert "broken.ply" in captured.err
-    assert sorted(os.listdir(out)) == ["office.ifc", "office.json"]  # nothing for the bad file
+    # nothing for the bad file; batch.json records both
+    assert sorted(os.listdir(out)) == ["batch.json", "office.ifc", "office.json"]
+    record = json.loads((out / "batch.json").read_text())
+    assert [d["input"] for d in record["done"]] == [scan]
+    assert [f["file"] for f in record["failed"]] == [str(bad)]
     model = BuildingModel.from_json(out / "office.json")
     assert model.spaces and model.walls  # quality is the grammar tests' business
     report = json.loads((out / "office.json").read_text())["report"]

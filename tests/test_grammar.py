@@ -21,20 +21,19 @@ from engine.synthetic import LABEL_WALL, preset
 SIGMA = {"tls": 0.005, "mobile": 0.02}
 
 
-def _scene(name, noise, n, seed=1):
-    sc = preset(name, seed=seed, noise=noise, target_points=n)
-    model = reconstruct_manhattan(sc.cloud, rng=0)
-    return sc, model
+OFFICE_POINTS = 250_000  # the office scan of test_generic and test_segmentation_presets too
 
 
 @pytest.fixture(scope="module")
-def office_tls():
-    return _scene("office_mw", "tls", 250_000)
+def office_tls(synthetic_scene, synthetic_model):
+    key = ("office_mw", 1, "tls", OFFICE_POINTS)
+    return synthetic_scene(*key), synthetic_model("manhattan", *key, rng=0)
 
 
 @pytest.fixture(scope="module")
-def office_mobile():
-    return _scene("office_mw", "mobile", 250_000)
+def office_mobile(synthetic_scene, synthetic_model):
+    key = ("office_mw", 1, "mobile", OFFICE_POINTS)
+    return synthetic_scene(*key), synthetic_model("manhattan", *key, rng=0)
 
 
 def truth_type(truth, c):

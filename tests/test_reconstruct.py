@@ -20,6 +20,11 @@ def test_auto_method_choice(name, noise, expected):
     cloud = preset(name, seed=2, noise=noise, target_points=100_000).cloud
     method, share = choose_method(cloud)
     assert method == expected, share
+    # and not by a hair: the share stays 0.05 from the threshold, so the choice does not
+    # flip with last-bit differences of the ray casting or the RANSAC planes between CPUs
+    # (measured over seeds 0-4: office_mw/mobile 1.000, house_multi_height 0.993-1.000,
+    # syn_house 0.60-0.65, hexagon_hall 0.42-0.43; threshold 0.85)
+    assert abs(share - AUTO_THRESHOLD) >= 0.05, share
 
 
 def test_manhattan_share_is_rotation_invariant():
@@ -29,14 +34,16 @@ def test_manhattan_share_is_rotation_invariant():
     a = np.radians(27.0)
     m = np.eye(4)
     m[:2, :2] = [[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]
-    assert manhattan_score(cloud.transformed(m)) >= AUTO_THRESHOLD
+    # measured 1.000 for seeds 0-4 (rotated 27°): 0.05 above the threshold, as for the
+    # auto choice above
+    assert manhattan_score(cloud.transformed(m)) >= AUTO_THRESHOLD + 0.05
 
 
 def test_real_room_scan_is_manhattan(data_dir):
     from engine.io import read_point_cloud
 
     method, share = choose_method(read_point_cloud(f"{data_dir}/room_scan1.pcd"))
-    assert method == "manhattan" and share >= AUTO_THRESHOLD
+    assert method == "manhattan" and share >= AUTO_THRESHOLD + 0.05  # measured 0.934
 
 
 def test_report_of_truth_model():

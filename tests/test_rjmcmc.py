@@ -84,6 +84,9 @@ def test_search_finds_the_rooms(name, request):
     assert min(iou) > 0.99
     st = SpaceSearch(cells, cov)
     st.set_model(_truth_spaces(cells, rooms))
+    # the search's (incrementally updated) score against the truth scored from scratch:
+    # the same partition summed in another order differs by <= 1.1e-16 (measured, scores
+    # about 0.02), so 1e-9 only absorbs rounding, never a worse model
     assert res.log_posterior >= st.score - 1e-9
     tr = res.trace
     assert tr["iteration"] and len(tr["iteration"]) == len(tr["score"])

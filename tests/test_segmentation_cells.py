@@ -148,8 +148,9 @@ def test_preprocess_end_to_end_rotated_with_progress():
     # translation-free rotation; the transform maps the aligned cloud back to the input
     back = res.cloud.xyz @ res.transform[:3, :3].T + res.transform[:3, 3]
     assert np.allclose(back, cloud.transformed(rot).xyz, atol=1e-9)
-    areas = sorted(round(c.area, 1) for c in res.cells.cells)
-    assert 20.0 in areas and 15.0 in areas
+    # the two rooms' cells, 20 and 15 m² (measured within 0.002 m² over seeds 1-3 and 7)
+    areas = np.array([c.area for c in res.cells.cells])
+    assert np.any(np.abs(areas - 20.0) < 0.05) and np.any(np.abs(areas - 15.0) < 0.05), areas
     assert res.working.fields["plane"].max() == len(res.planes) - 1
     full = res.to_full(res.working.fields["segment_class"])
     assert len(full) == len(res.cloud)
