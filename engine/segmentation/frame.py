@@ -241,7 +241,7 @@ class _Sample:
     spread: np.ndarray  # (m,) middle eigenvalue / largest: near 0 on a line (a scan line)
     radius: np.ndarray  # (m,) distance to the k-th neighbour
     noise: np.ndarray  # (m,) sqrt(smallest eigenvalue / k): plane residual
-    origins: Optional[np.ndarray]  # (m, 3) scanner of each point or None
+    rays: Optional[np.ndarray]  # (r, 3) unit scanner → point directions of a random sample, or None
     scanners: Optional[np.ndarray]  # (k, 3) finite scanner positions or None
     n_total: int
     source: str
@@ -252,7 +252,7 @@ class _Sample:
         return _Sample(
             xyz=self.xyz @ r.T, normals=self.normals @ r.T, curvature=self.curvature, spread=self.spread,
             radius=self.radius, noise=self.noise,
-            origins=None if self.origins is None else self.origins @ r.T,
+            rays=None if self.rays is None else self.rays @ r.T,
             scanners=None if self.scanners is None else self.scanners @ r.T,
             n_total=self.n_total, source=self.source)
 
@@ -261,8 +261,9 @@ def _name(cloud_or_sample) -> str:
     return cloud_or_sample.source or "point cloud"
 
 
-def _points(cloud: PointCloud, params: FrameParams, rng) -> np.ndarray:
-    """Indices of a spatially even sample of the cloud's finite, distinct points.
+def _points(cloud: PointCloud, params: FrameParams, rng) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of a spatially even sample of the cloud's finite, distinct points, and of the
+    random pre-sample it was thinned from (for statistics of the rays, which thinning biases).
 
     A random pre-sample (``presample`` × ``sample_points``) is thinned on a voxel grid to
     about ``sample_points``: a random sample keeps the scan's density, and a mobile
@@ -296,40 +297,50 @@ def _points(cloud: PointCloud, params: FrameParams, rng) -> np.ndarray:
             if len(first) > m:
                 first = rng.choice(first, m, replace=False)
             if len(first) >= params.min_distinct:
-                return idx[np.sort(first)]
+                return idx[np.sort(first)], idx
     _, first = np.unique(xyz, axis=0, return_index=True)
-    return idx[np.sort(first)]
+    return idx[np.sort(first)], idx
 
 
-def _sample(cloud: PointCloud, params: FrameParams, rng, idx: Optional[np.ndarray] = None) -> _Sample:
-    """The sample (:func:`_points`) with kNN PCA statistics."""
+def _rays(cloud: PointCloud, idx: np.ndarray) -> Optional[np.ndarray]:
+    """(r, 3) unit directions from each point's scanner to the points ``idx`` (those with a
+    known, distinct scanner), or None when the cloud does not say where its scanners were."""
+    sp = cloud.scanner_positions
+    if sp is None or not len(sp):
+        return None
+    if cloud.scan_index is not None:
+        si = cloud.scan_index[idx]
+        good = (si >= 0) & (si < len(sp))
+        d = cloud.xyz[idx[good]] - sp[si[good]]
+    elif len(sp) == 1:
+        d = cloud.xyz[idx] - sp[0]
+    else:
+        return None
+    r = np.linalg.norm(d, axis=1)
+    ok = np.isfinite(r) & (r > 0)
+    return d[ok] / r[ok, None] if ok.any() else None
+
+
+def _sample(cloud: PointCloud, params: FrameParams, rng, idx: Optional[tuple] = None) -> _Sample:
+    """The sample (:func:`_points`, or ``idx`` as it returns them) with kNN PCA statistics."""
     from scipy.spatial import cKDTree
 
-    if idx is None:
-        idx = _points(cloud, params, rng)
+    idx, raw = _points(cloud, params, rng) if idx is None else idx
     xyz = cloud.xyz[idx]
     m = len(xyz)
     n = len(cloud)
-    origins = None
+    rays = _rays(cloud, raw)
     sp = cloud.scanner_positions
     scanners = None
     if sp is not None and len(sp):
         fin = np.isfinite(sp).all(axis=1)
         scanners = sp[fin] if fin.any() else None
-        if cloud.scan_index is not None:
-            si = cloud.scan_index[idx]
-            good = (si >= 0) & (si < len(sp))
-            o = np.full((m, 3), np.nan)
-            o[good] = sp[si[good]]
-            origins = o
-        elif len(sp) == 1 and fin[0]:
-            origins = np.repeat(sp[:1], m, axis=0)
     k = min(params.neighbours, m - 1)
     if k < 3:
         nrm = np.zeros((m, 3))
         nrm[:, 2] = 1.0
         one, zero = np.ones(m), np.zeros(m)
-        return _Sample(xyz, nrm, one, zero, zero, zero, origins, scanners, n, cloud.source)
+        return _Sample(xyz, nrm, one, zero, zero, zero, rays, scanners, n, cloud.source)
     centre = xyz.mean(axis=0)  # centred: the covariances of georeferenced data keep their digits
     pts = xyz - centre
     d, nb = cKDTree(pts).query(pts, k=k + 1, workers=-1)
@@ -340,7 +351,7 @@ def _sample(cloud: PointCloud, params: FrameParams, rng, idx: Optional[np.ndarra
     curv = np.where(total > 0, np.maximum(w[:, 0], 0.0) / np.where(total > 0, total, 1.0), 1.0)
     spread = np.where(w[:, 2] > 0, np.maximum(w[:, 1], 0.0) / np.where(w[:, 2] > 0, w[:, 2], 1.0), 0.0)
     noise = np.sqrt(np.maximum(w[:, 0], 0.0) / (k + 1))
-    return _Sample(xyz, v[:, :, 0], curv, spread, d[:, -1], noise, origins, scanners, n, cloud.source)
+    return _Sample(xyz, v[:, :, 0], curv, spread, d[:, -1], noise, rays, scanners, n, cloud.source)
 
 
 def _planar(s: _Sample, params: FrameParams) -> np.ndarray:
@@ -618,16 +629,12 @@ class _Layers:
 
 # ----------------------------------------------------------------------------- up axis
 def _cone(s: _Sample, axis: int, params: FrameParams):
-    """(asymmetry (n₊ − n₋)/(n₊ + n₋), n₊ + n₋) of the sample points seen within
-    ``cone_angle`` of +axis / −axis from their scanner, or None without scanners."""
-    if s.origins is None:
+    """(asymmetry (n₊ − n₋)/(n₊ + n₋), n₊ + n₋) of the rays (a plain random sample: the
+    scanner's angular sampling, which a spatially even sample would bias by the range)
+    within ``cone_angle`` of +axis / −axis, or None without scanners."""
+    if s.rays is None:
         return None
-    d = s.xyz - s.origins
-    ok = np.isfinite(d).all(axis=1)
-    d = d[ok]
-    r = np.linalg.norm(d, axis=1)
-    good = r > 0
-    c = d[good, axis] / r[good]
+    c = s.rays[:, axis]
     ca = math.cos(params.cone_angle)
     up, down = int(np.sum(c > ca)), int(np.sum(c < -ca))
     return (up - down) / max(up + down, 1), up + down
@@ -926,11 +933,11 @@ def _checked_sample(cloud: PointCloud, params: FrameParams, scale: Optional[floa
     """The sample after the shape checks (before its k-d tree) and the structure checks."""
     if len(cloud) < params.min_distinct:
         _check_shape(cloud, cloud.xyz, params, scale)
-    idx = _points(cloud, params, rng)
+    idx, raw = _points(cloud, params, rng)
     if len(idx) == 0:
         raise ReconstructionError("no point has finite coordinates", cloud.source or None)
     e = _check_shape(cloud, cloud.xyz[idx], params, scale)
-    s = _sample(cloud, params, rng, idx)
+    s = _sample(cloud, params, rng, (idx, raw))
     _check_structure(cloud, s, e, params)
     return s, e
 
