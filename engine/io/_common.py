@@ -178,7 +178,8 @@ def suspect_units(xyz_extent: np.ndarray, params: ReadParams = DEFAULT_PARAMS) -
     plausible = params.min_building_extent_m <= as_m <= params.max_indoor_extent_m
     if ext > params.max_indoor_extent_m and plausible:
         return (f"bounding box is {ext:,.0f} units across: too large for an indoor scan in metres; "
-                f"the coordinates look like millimetres ({as_m:,.1f} m). They were NOT rescaled.")
+                f"the coordinates look like millimetres ({as_m:,.1f} m); the reader keeps them as they "
+                "are (convert rescales them: --units)")
     return None
 
 

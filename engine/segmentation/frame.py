@@ -1051,7 +1051,12 @@ def normalize_frame(cloud: PointCloud, units: str = "auto", up: str = "auto",
               "warnings": notes}
     out = _apply(cloud, rot, scale)
     if notes:
-        out = out.with_(warnings=tuple(out.warnings) + tuple(notes))
+        kept = out.warnings
+        if unit != "m":  # the reader's "looks like millimetres" note is answered by the rescale
+            from ..io import units_warning
+
+            kept = tuple(w for w in kept if w != units_warning(out))
+        out = out.with_(warnings=tuple(kept) + tuple(notes))
     return out, record
 
 
