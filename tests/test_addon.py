@@ -383,3 +383,30 @@ def test_reconstruct_failure_reports_and_leaves_scene_unchanged(scene, addon, rn
     assert bu.scene_state() == before
     assert "Indoor Model.json" not in bpy.data.texts
     assert not bpy.ops.indoor.export_ifc.poll()  # nothing to export
+
+
+def test_import_of_a_bad_count_and_a_bug_are_one_line_reports(scene, tmp_path, monkeypatch):
+    """A PLY with a negative count, and any exception that is not the engine's own (a bug),
+    are one-line reports naming the file and the kind of error — never a traceback — and the
+    scene stays as it was."""
+    bad = tmp_path / "neg.ply"
+    bad.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex -5\nproperty float x\n"
+                    b"property float y\nproperty float z\nend_header\n" + b"\0" * 60)
+    before = bu.scene_state()
+    with pytest.raises(RuntimeError) as e:
+        bpy.ops.indoor.import_scan(filepath=str(bad))
+    msg = str(e.value)
+    assert "neg.ply: input error" in msg and "negative" in msg and "Traceback" not in msg
+    assert len(msg.strip().splitlines()) == 1
+    assert bu.scene_state() == before
+    io = bu.engine_module("io")
+
+    def boom(*a, **k):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(io, "read_point_cloud", boom)
+    with pytest.raises(RuntimeError) as e:
+        bpy.ops.indoor.import_scan(filepath=str(bad))
+    msg = str(e.value)
+    assert "internal error: ZeroDivisionError" in msg and "Traceback" not in msg
+    assert bu.scene_state() == before
