@@ -44,7 +44,8 @@ CHANGE_COLOR_ITEMS = (
 )
 """How a scan shows its change-detection result."""
 
-__all__ = ["INDOOR_PG_settings", "CLASSES", "METHOD_ITEMS", "UNITS_ITEMS", "UP_ITEMS", "EDIT_TYPE_ITEMS", "POSITION_ITEMS",
+__all__ = ["INDOOR_PG_settings", "CLASSES", "METHOD_ITEMS", "UNITS_ITEMS", "UP_ITEMS", "EDIT_TYPE_ITEMS",
+           "POSITION_ITEMS",
            "CHANGE_COLOR_ITEMS"]
 
 

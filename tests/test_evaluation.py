@@ -5,7 +5,6 @@ the ``eval_demo`` preset of engine.synthetic. "True shares" are derived from the
 """
 import csv
 import json
-import os
 
 import numpy as np
 import pytest

@@ -5,7 +5,6 @@ scenes whose truth is explicit: rooms are the pieces of a partition shrunk by ha
 thickness; points are sampled on every room's floor, ceiling and side faces, with exact
 inward normals and Gaussian noise along the normal.
 """
-import math
 
 import numpy as np
 import shapely

@@ -1,5 +1,4 @@
 """IFC writer and reader: write hand-built models, validate, re-open, tessellate, read back."""
-import logging
 import os
 
 import numpy as np

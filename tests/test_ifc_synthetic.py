@@ -1,6 +1,5 @@
 """The true model of every synthetic preset: write IFC4, validate, check the spatial tree,
 tessellate, read back (footprints, topology) — the plan/truth only, no scan simulated."""
-import numpy as np
 import pytest
 
 ifcopenshell = pytest.importorskip("ifcopenshell")

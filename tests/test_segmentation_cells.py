@@ -6,7 +6,7 @@ from shapely.geometry import Polygon, box
 
 from engine.errors import ReconstructionError
 from engine.pointcloud import PointCloud
-from engine.segmentation import (CellParams, PreprocessParams, clean, decompose_cells, detect_storeys,
+from engine.segmentation import (clean, decompose_cells, detect_storeys,
                                  estimate_normals, extract_planes, is_structural_wall, preprocess)
 from seg_scenes import rotation, two_room_office
 

@@ -603,7 +603,7 @@ def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = Non
     """
     import shapely
 
-    from ..segmentation import classify_points, estimate_normals, voxel_downsample
+    from ..segmentation import classify_points, estimate_normals
     from ..segmentation.planes import extract_planes
 
     params = params or GenericParams()

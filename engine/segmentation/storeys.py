@@ -145,7 +145,8 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
         neighbours[hit, j] = pos[hit]
     nonhor = ~hor & (nz <= np.cos(params.angle_tolerance))
     sp = cloud.scanner_positions
-    scanner_z = None if sp is None or not np.isfinite(sp).all(axis=1).any() else sp[np.isfinite(sp).all(axis=1), 2]
+    fin = None if sp is None else np.isfinite(sp).all(axis=1)
+    scanner_z = None if fin is None or not fin.any() else sp[fin, 2]
     layers = []
     hw = params.layer_half_width
     for b in peaks:
@@ -241,7 +242,8 @@ def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
         storeys.append(Storey(index=k, floor_z=float(floor.z), ceiling_z=float(ceil.z),
                               name=f"Storey {k}", elevation=float(floor.z)))
     if not storeys:
-        desc = ", ".join(f"{L.kind} z={L.z:.2f} area={L.area:.1f}m² contrast={L.contrast:+.2f}" for L in layers)
+        desc = ", ".join(f"{L.kind} z={L.z:.2f} area={L.area:.1f}m² contrast={L.contrast:+.2f}"
+                         for L in layers)
         raise ReconstructionError(
             f"{name}: no storey found — no floor layer with a ceiling layer at least "
             f"{params.min_storey_height} m above it (layers: {desc or 'none'})")

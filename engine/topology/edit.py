@@ -7,7 +7,7 @@ leaves a stale relation. The input model is not changed: undo is keeping it.
 from __future__ import annotations
 
 import logging
-from typing import Iterable, Sequence, Union
+from typing import Iterable, Union
 
 import numpy as np
 

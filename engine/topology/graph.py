@@ -7,7 +7,7 @@ between the centroids, metres — the cost of Dijkstra).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional, Sequence
+from typing import Optional
 
 import numpy as np
 
