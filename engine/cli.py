@@ -276,5 +276,26 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return EXIT_USAGE if usage else EXIT_FAILED
 
 
+def run() -> None:
+    """The console entry point (``indoor``, ``python -m engine``): :func:`main`, then exit.
+
+    After an interrupt the process ends at once (``os._exit``) once its output is flushed:
+    a native library stopped between two calls (open3d's thread pool, Embree) can crash at
+    interpreter shutdown — seen as a SIGSEGV after the "interrupted" line — and every output
+    is already complete or removed by then.
+    """
+    import os
+
+    from .jobs import EXIT_INTERRUPTED
+
+    code = main()
+    if code == EXIT_INTERRUPTED:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        logging.shutdown()
+        os._exit(code)
+    raise SystemExit(code)
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run()

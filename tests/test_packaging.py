@@ -76,7 +76,7 @@ def test_pyproject_version_and_script():
     with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
         p = tomllib.load(f)
     assert p["project"]["version"] == engine.__version__
-    assert p["project"]["scripts"]["indoor"] == "engine.cli:main"
+    assert p["project"]["scripts"]["indoor"] == "engine.cli:run"
 
 
 def test_root_init_is_thin():
