@@ -78,9 +78,7 @@ def _run_batch(args, items, label: str, work: Callable, names: Optional[Sequence
     debug = getattr(args, "debug", False)
 
     def report(f):
-        print(f"error: {f.message}", file=sys.stderr)
-        if debug and f.traceback:
-            print(f.traceback, file=sys.stderr, end="")
+        f.print(debug)
 
     interrupted = False
     for i, item in enumerate(items):
@@ -153,6 +151,8 @@ def cmd_info(args) -> int:
 
 # --------------------------------------------------------------------------- convert
 def add_convert(sub) -> None:
+    from .segmentation.frame import UNITS, UP_AXES
+
     p = sub.add_parser("convert", help="reconstruct building models from scans, write IFC and JSON",
                        description="Reconstruct each SCAN and write OUT_DIR/<name>.ifc and <name>.json; "
                                    "OUT_DIR/batch.json maps every input to its outputs and lists the "
@@ -163,18 +163,16 @@ def add_convert(sub) -> None:
     p.add_argument("--method", choices=("auto", "manhattan", "generic"), default="auto",
                    help="auto: Manhattan grammar when the walls are Manhattan, else cells + rjMCMC")
     p.add_argument("--seed", type=seed_argument, default=0, help="random seed >= 0 (same seed, same model)")
-    p.add_argument("--units", choices=UNITS, default="auto",
+    p.add_argument("--units", choices=("auto", *UNITS), default="auto",
                    help="units of the scan's coordinates; auto detects mm, cm, in, ft from the extent and "
                         "the storey heights and rescales to metres (default auto)")
-    p.add_argument("--up", choices=UP_AXES, default="auto",
+    p.add_argument("--up", choices=("auto", *UP_AXES), default="auto",
                    help="which axis of the scan points up; auto detects y-up and upside-down scans from "
                         "the floor and ceiling planes and rotates them (default auto)")
     p.add_argument("--no-ifc", action="store_true", help="write only the JSON model and report")
     p.set_defaults(func=cmd_convert)
 
 
-UNITS = ("auto", "m", "mm", "cm", "in", "ft")
-UP_AXES = ("auto", "z", "-z", "y", "-y", "x", "-x")
 
 
 def cmd_convert(args) -> int:

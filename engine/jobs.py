@@ -138,6 +138,15 @@ class Failure:
     def to_dict(self) -> dict:
         return {"file": self.file, "kind": self.kind, "error": self.message}
 
+    def print(self, debug: bool = False, stream=None) -> None:
+        """``error: <message>`` on stderr, then the traceback when ``debug``."""
+        import sys
+
+        stream = stream or sys.stderr
+        print(f"error: {self.message}", file=stream)
+        if debug and self.traceback:
+            print(self.traceback, file=stream, end="")
+
 
 def guarded(path: str | os.PathLike, work: Callable[[], object], *, debug: bool = False,
             on_failure: Optional[Callable[[Failure], None]] = None):

@@ -47,7 +47,7 @@ def choose_method(cloud: PointCloud, *, rng=0) -> tuple[str, float]:
 
 
 def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, progress=None,
-                should_stop=None) -> BuildingModel:
+                should_stop=None, check: bool = True) -> BuildingModel:
     """Reconstruct a building model from a scan.
 
     Parameters
@@ -59,6 +59,9 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
         chosen from the data).
     rng : seed or Generator; same seed, same model.
     progress, should_stop : see :class:`engine.progress.Progress`.
+    check : bool
+        Run :func:`~engine.segmentation.frame.check_degenerate` first; False when the caller
+        already did (``normalize_frame`` runs the same checks).
 
     Returns
     -------
@@ -74,7 +77,8 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
 
     if method not in METHODS:
         raise InputError(f"method must be one of {', '.join(METHODS)}, not {method!r}")
-    check_degenerate(cloud)  # flat, a line, identical points, noise: fail in a second
+    if check:
+        check_degenerate(cloud)  # flat, a line, identical points, noise: fail in a second
     p = Progress.wrap(progress, should_stop)
     choice = {}
     if method == "auto":
@@ -186,8 +190,8 @@ def convert_file(path: str | os.PathLike, out_dir: str | os.PathLike, *, method:
     t0 = time.perf_counter()
     cloud = read_point_cloud(path, progress=p.sub(0.0, 0.1))
     t_read = time.perf_counter() - t0
-    cloud, frame = normalize_frame(cloud, units=units, up=up)
-    model = reconstruct(cloud, method, params=params, rng=seed, progress=p.sub(0.1, 0.9))
+    cloud, frame = normalize_frame(cloud, units=units, up=up)  # checks the cloud as well
+    model = reconstruct(cloud, method, params=params, rng=seed, progress=p.sub(0.1, 0.9), check=False)
     name = name or os.path.splitext(os.path.basename(os.fspath(path)))[0]
     prov = model.provenance
     model = model.with_(name=model.name or name, provenance=prov.__class__(

@@ -57,3 +57,22 @@ def synthetic_model():
     ``reconstruct_manhattan`` / ``reconstruct_generic`` makes of that scene's cloud, once
     per test session."""
     return _model
+
+
+@pytest.fixture(scope="session")
+def synthetic_scan_file(tmp_path_factory):
+    """``synthetic_scan_file(name, seed, points, filename)``: the path of that preset's TLS scan
+    written once per session as a binary PLY called ``filename`` (its own folder per call)."""
+    from engine.io import write_ply
+
+    made = {}
+
+    def get(name: str, seed: int, points: int, filename: str):
+        key = (name, seed, points, filename)
+        if key not in made:
+            path = tmp_path_factory.mktemp("scan") / filename
+            write_ply(path, _scene(name, seed, "tls", points).cloud)
+            made[key] = path
+        return made[key]
+
+    return get

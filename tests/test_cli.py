@@ -30,15 +30,9 @@ def test_unknown_method_is_rejected():
 
 
 @pytest.fixture(scope="module")
-def small_scan(tmp_path_factory):
-    from engine.io import write_ply
-    from engine.synthetic import preset
-
-    scene = preset("office_mw", seed=3, target_points=120_000)
-    d = tmp_path_factory.mktemp("scan")
-    path = d / "office.ply"
-    write_ply(path, scene.cloud)
-    return str(path), scene
+def small_scan(synthetic_scene, synthetic_scan_file):
+    return str(synthetic_scan_file("office_mw", 3, 120_000, "office.ply")), \
+        synthetic_scene("office_mw", 3, "tls", 120_000)
 
 
 def test_convert_batch_writes_outputs_and_names_the_bad_file(small_scan, tmp_path, capsys):

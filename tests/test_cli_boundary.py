@@ -13,14 +13,8 @@ from engine.jobs import check_output_dir, guarded, output_stems, terminate_as_in
 
 
 @pytest.fixture(scope="module")
-def scan(tmp_path_factory):
-    from engine.io import write_ply
-    from engine.synthetic import preset
-
-    scene = preset("office_mw", seed=2, target_points=50_000)
-    path = tmp_path_factory.mktemp("scan") / "office.ply"
-    write_ply(path, scene.cloud)
-    return path
+def scan(synthetic_scan_file):
+    return synthetic_scan_file("office_mw", 2, 50_000, "office.ply")
 
 
 def _without_timestamp(text: str) -> str:

@@ -270,15 +270,8 @@ def test_internal_errors_become_one_line_and_the_batch_goes_on(tmp_path, capsys,
 
 # --------------------------------------------------------------------------- batches
 @pytest.fixture(scope="module")
-def good_scan(tmp_path_factory):
-    from engine.io import write_ply
-    from engine.synthetic import preset
-
-    scene = preset("office_mw", seed=1, target_points=60_000)
-    d = tmp_path_factory.mktemp("good")
-    path = d / "good.ply"
-    write_ply(path, scene.cloud)
-    return path
+def good_scan(synthetic_scan_file):
+    return synthetic_scan_file("office_mw", 1, 60_000, "good.ply")
 
 
 def test_batch_with_a_bad_file_in_the_middle_and_two_inputs_of_one_name(good_scan, tmp_path, capsys):

@@ -14,7 +14,6 @@ import json
 import logging
 import math
 import os
-import sys
 
 
 __all__ = ["add_segment", "cmd_segment", "segmentation_report"]
@@ -95,9 +94,7 @@ def cmd_segment(args) -> int:
     done, failed = [], []
 
     def report(f):
-        print(f"error: {f.message}", file=sys.stderr)
-        if getattr(args, "debug", False) and f.traceback:
-            print(f.traceback, file=sys.stderr, end="")
+        f.print(getattr(args, "debug", False))
 
     def work(path, stem, bar):
         cloud = read_point_cloud(path)
