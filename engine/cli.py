@@ -72,13 +72,14 @@ def _run_batch(args, items, label: str, work: Callable, names: Optional[Sequence
     -------
     (results, failures, interrupted) : (list, list[Failure], bool)
     """
-    from .jobs import guarded
+    from .jobs import guarded, stop_requested
 
     results, failures = [], []
     debug = getattr(args, "debug", False)
 
     def report(f):
-        f.print(debug)
+        if not (f.kind == "cancelled" and stop_requested()):  # SIGTERM: said once, below
+            f.print(debug)
 
     interrupted = False
     for i, item in enumerate(items):
@@ -93,8 +94,11 @@ def _run_batch(args, items, label: str, work: Callable, names: Optional[Sequence
             bar.close()
         if failure is None:
             results.append(result)
-        else:
+        elif not (failure.kind == "cancelled" and stop_requested()):
             failures.append(failure)
+        if stop_requested():  # SIGTERM during this file: it was cancelled or finished
+            interrupted = True
+            break
     return results, failures, interrupted
 
 
@@ -176,15 +180,17 @@ def add_convert(sub) -> None:
 
 
 def cmd_convert(args) -> int:
-    from .jobs import check_output_dir, output_stems, write_batch_record
+    from .jobs import check_output_dir, output_stems, polled, stop_requested, write_batch_record
     from .reconstruct import convert_file
 
     check_output_dir(args.out)  # before any work: a bad folder fails in a second, not after hours
     names = output_stems(args.scans)
 
     def work(path, bar, name):
-        r = convert_file(path, args.out, method=args.method, seed=args.seed, name=name,
-                         units=args.units, up=args.up, write_ifc=not args.no_ifc, progress=bar)
+        with polled():  # SIGTERM: the engine stops at its next progress check
+            r = convert_file(path, args.out, method=args.method, seed=args.seed, name=name,
+                             units=args.units, up=args.up, write_ifc=not args.no_ifc, progress=bar,
+                             should_stop=stop_requested)
         return {"input": r.report["source"]["path"], "json": r.json_path, "ifc": r.ifc_path,
                 **r.report["summary"], "method": r.model.provenance.method,
                 "seconds": r.report["timings_s"]["total"]}

@@ -30,7 +30,8 @@ from typing import Callable, Optional, Sequence
 from .errors import OutputError, error_kind, error_line, printable
 
 __all__ = ["check_output_dir", "output_stems", "Failure", "guarded", "terminate_as_interrupt",
-           "write_batch_record", "seed_argument", "EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERRUPTED"]
+           "write_batch_record", "seed_argument", "stop_requested", "polled", "EXIT_OK", "EXIT_FAILED",
+           "EXIT_USAGE", "EXIT_INTERRUPTED"]
 
 log = logging.getLogger(__name__)
 
@@ -169,13 +170,39 @@ def guarded(path: str | os.PathLike, work: Callable[[], object], *, debug: bool 
         return None, failure
 
 
-def _raise_interrupt(signum, frame):
-    raise KeyboardInterrupt(f"signal {signum}")
+_stop = threading.Event()
+_polled_depth = 0
+
+
+def _on_terminate(signum, frame):
+    _stop.set()
+    if _polled_depth == 0:  # nobody polls stop_requested(): stop here, like Ctrl-C
+        raise KeyboardInterrupt(f"signal {signum}")
+
+
+def stop_requested() -> bool:
+    """True once SIGTERM arrived inside :func:`terminate_as_interrupt`: a ``should_stop``."""
+    return _stop.is_set()
+
+
+@contextlib.contextmanager
+def polled():
+    """Within the block the work polls :func:`stop_requested` (as its ``should_stop``), so
+    SIGTERM only sets the flag and the engine raises ``Cancelled`` at its next check. An
+    exception raised at an arbitrary point in native code's callers (open3d's thread pool,
+    Embree) was seen to end the process with SIGSEGV."""
+    global _polled_depth
+    _polled_depth += 1
+    try:
+        yield
+    finally:
+        _polled_depth -= 1
 
 
 @contextlib.contextmanager
 def terminate_as_interrupt():
-    """Within the block, SIGTERM raises ``KeyboardInterrupt`` like Ctrl-C does.
+    """Within the block, SIGTERM stops the work like Ctrl-C does: it raises
+    ``KeyboardInterrupt``, or inside :func:`polled` sets :func:`stop_requested`.
 
     Only in the main thread (signal handlers can be set nowhere else); the previous handler
     is restored afterwards.
@@ -183,8 +210,9 @@ def terminate_as_interrupt():
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    _stop.clear()
     old = signal.getsignal(signal.SIGTERM)
-    signal.signal(signal.SIGTERM, _raise_interrupt)
+    signal.signal(signal.SIGTERM, _on_terminate)
     try:
         yield
     finally:
