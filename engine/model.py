@@ -33,19 +33,16 @@ from typing import Any, Iterable, Iterator, Mapping, Optional, Sequence
 import numpy as np
 
 from .errors import FormatError, InputError
+from .fileutil import atomic_write_text
+from .geometry.boxes import min_area_box
+from .geometry.polygon import (area_3d, newell_normal, plan_area_perimeter, polyhedron_volume,
+                               prism_footprint, signed_area, triangulate_faces)
+from .geometry.transforms import to_input_frame
+from .jsonfields import (Malformed, as_array, as_flag, as_integer, as_number, as_numbers, as_object, as_text,
+                         error_text, json_kind, jsonable, member, parse_json)
 
-__all__ = [
-    "SCHEMA_VERSION",
-    "ShapeType",
-    "Scope",
-    "Polyhedron",
-    "Shape",
-    "Storey",
-    "Relation",
-    "Surface",
-    "Provenance",
-    "BuildingModel",
-]
+__all__ = ["SCHEMA_VERSION", "ShapeType", "Scope", "Polyhedron", "Shape", "Storey", "Relation", "Surface",
+           "Provenance", "BuildingModel"]
 
 SCHEMA_VERSION = 1
 """Version of the JSON layout written by :meth:`BuildingModel.to_dict`."""
@@ -81,108 +78,6 @@ def _ro(a, dtype=np.float64, shape=None) -> np.ndarray:
         a = a.reshape(shape)
     a.setflags(write=False)
     return a
-
-
-# ----------------------------------------------------------------------------- JSON checks
-class _Malformed(ValueError):
-    """A field of a model JSON has the wrong type or value; the message says where."""
-
-
-_REQUIRED = object()
-
-
-def _json_kind(v) -> str:
-    """The JSON name of the type of ``v`` (for messages)."""
-    if v is None:
-        return "null"
-    if isinstance(v, bool):
-        return "a boolean"
-    if isinstance(v, (int, float)):
-        return "a number"
-    if isinstance(v, str):
-        return "a string"
-    if isinstance(v, (list, tuple)):
-        return "an array"
-    if isinstance(v, Mapping):
-        return "an object"
-    return type(v).__name__
-
-
-def _obj(v, where: str) -> Mapping:
-    if not isinstance(v, Mapping):
-        raise _Malformed(f"{where} must be an object, not {_json_kind(v)}")
-    return v
-
-
-def _get(d: Mapping, key: str, where: str, default=_REQUIRED):
-    if key in d:
-        return d[key]
-    if default is _REQUIRED:
-        raise _Malformed(f"{where} has no {key!r}")
-    return default
-
-
-def _text(v, where: str, optional: bool = False):
-    if v is None and optional:
-        return None
-    if not isinstance(v, str):
-        raise _Malformed(f"{where} must be a string, not {_json_kind(v)}")
-    return v
-
-
-def _integer(v, where: str) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-        if isinstance(v, float) and v.is_integer():
-            return int(v)
-        raise _Malformed(f"{where} must be a whole number, not {_json_kind(v)}")
-    return int(v)
-
-
-def _flag(v, where: str) -> bool:
-    if isinstance(v, bool) or (isinstance(v, int) and v in (0, 1)):
-        return bool(v)
-    raise _Malformed(f"{where} must be true or false, not {_json_kind(v)}")
-
-
-def _number(v, where: str, finite: bool = True) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-        raise _Malformed(f"{where} must be a number, not {_json_kind(v)}")
-    x = float(v)
-    if finite and not np.isfinite(x):
-        raise _Malformed(f"{where} must be finite, not {x}")
-    return x
-
-
-def _array(v, where: str) -> list:
-    if not isinstance(v, (list, tuple)):
-        raise _Malformed(f"{where} must be an array, not {_json_kind(v)}")
-    return list(v)
-
-
-def _numbers(v, where: str, shape: tuple) -> np.ndarray:
-    """float64 array of ``shape`` (-1 for any length) from nested arrays of finite numbers."""
-    if not isinstance(v, (list, tuple, np.ndarray)):
-        raise _Malformed(f"{where} must be an array, not {_json_kind(v)}")
-    try:
-        a = np.asarray(v)
-    except ValueError:  # ragged
-        raise _Malformed(f"{where} must be an array of shape {_shape_text(shape)} (rows differ in length)") \
-            from None
-    if a.size == 0 and -1 in shape:
-        return np.zeros([0 if n == -1 else n for n in shape], dtype=np.float64)
-    if a.dtype.kind not in "iuf":
-        raise _Malformed(f"{where} must hold numbers only")
-    if a.ndim != len(shape) or any(n != -1 and n != m for n, m in zip(shape, a.shape)):
-        raise _Malformed(f"{where} must be an array of shape {_shape_text(shape)}, "
-                         f"not {_shape_text(a.shape)}")
-    a = a.astype(np.float64)
-    if not np.isfinite(a).all():
-        raise _Malformed(f"{where} holds non-finite numbers")
-    return a
-
-
-def _shape_text(shape) -> str:
-    return "(" + ", ".join("n" if n == -1 else str(n) for n in shape) + ")"
 
 
 @dataclass(frozen=True, eq=False)
@@ -224,40 +119,7 @@ class Scope:
 
         ``vertices`` : (n, 3) float64. Degenerate input (no vertices) gives a zero box.
         """
-        v = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
-        if len(v) == 0:
-            return cls(np.zeros(3), np.eye(3), np.zeros(3))
-        zmin, zmax = v[:, 2].min(), v[:, 2].max()
-        xy = v[:, :2]
-        best = None
-        try:
-            from scipy.spatial import ConvexHull
-
-            hull = xy[ConvexHull(xy).vertices] if len(xy) >= 3 else xy
-        except Exception:  # collinear or too few points
-            hull = xy
-        edges = np.diff(np.vstack([hull, hull[:1]]), axis=0)
-        angles = np.unique(np.round(np.mod(np.arctan2(edges[:, 1], edges[:, 0]), np.pi / 2), 9))
-        if len(angles) == 0:
-            angles = np.array([0.0])
-        for a in angles:
-            c, s = np.cos(a), np.sin(a)
-            ax = np.array([[c, s], [-s, c]])
-            p = hull @ ax.T
-            lo, hi = p.min(axis=0), p.max(axis=0)
-            area = float(np.prod(hi - lo))
-            if best is None or area < best[0] - 1e-12:
-                best = (area, ax, lo, hi)
-        _, ax, lo, hi = best
-        size2 = hi - lo
-        if size2[0] < size2[1] - 1e-9:  # X along the longer side
-            ax = np.array([ax[1], -ax[0]])
-            p = hull @ ax.T
-            lo, hi = p.min(axis=0), p.max(axis=0)
-            size2 = hi - lo
-        origin2 = ax.T @ lo
-        axes = np.array([[ax[0, 0], ax[0, 1], 0.0], [ax[1, 0], ax[1, 1], 0.0], [0.0, 0.0, 1.0]])
-        return cls(np.array([origin2[0], origin2[1], zmin]), axes, np.array([size2[0], size2[1], zmax - zmin]))
+        return cls(*min_area_box(vertices))
 
     def to_dict(self) -> dict:
         return {"origin": self.origin.tolist(), "axes": self.axes.tolist(), "size": self.size.tolist()}
@@ -265,10 +127,10 @@ class Scope:
     @classmethod
     def from_dict(cls, d: Mapping, where: str = "scope") -> "Scope":
         """Read :meth:`to_dict` output; ``ValueError`` naming ``where`` when it is malformed."""
-        d = _obj(d, where)
-        return cls(_numbers(_get(d, "origin", where), f"{where}.origin", (3,)),
-                   _numbers(_get(d, "axes", where), f"{where}.axes", (3, 3)),
-                   _numbers(_get(d, "size", where), f"{where}.size", (3,)))
+        d = as_object(d, where)
+        return cls(as_numbers(member(d, "origin", where), f"{where}.origin", (3,)),
+                   as_numbers(member(d, "axes", where), f"{where}.axes", (3, 3)),
+                   as_numbers(member(d, "size", where), f"{where}.size", (3,)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -305,8 +167,7 @@ class Polyhedron:
             fp = fp[:-1]
         if len(fp) < 3:
             raise ValueError("a prism needs a footprint of at least 3 vertices")
-        x, y = fp[:, 0], fp[:, 1]
-        if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:
+        if signed_area(fp) < 0:
             fp = fp[::-1]
         k = len(fp)
         verts = np.vstack([np.column_stack([fp, np.full(k, zmin)]), np.column_stack([fp, np.full(k, zmax)])])
@@ -328,21 +189,11 @@ class Polyhedron:
 
     def face_normal(self, i: int) -> np.ndarray:
         """(3,) float64 — unit outward normal of face ``i`` (Newell's method)."""
-        v = self.face_vertices(i)
-        w = np.roll(v, -1, axis=0)
-        n = np.array([
-            np.sum((v[:, 1] - w[:, 1]) * (v[:, 2] + w[:, 2])),
-            np.sum((v[:, 2] - w[:, 2]) * (v[:, 0] + w[:, 0])),
-            np.sum((v[:, 0] - w[:, 0]) * (v[:, 1] + w[:, 1])),
-        ])
-        norm = np.linalg.norm(n)
-        return n / norm if norm > 0 else n
+        return newell_normal(self.face_vertices(i))
 
     def face_area(self, i: int) -> float:
         """Area of face ``i`` in m²."""
-        v = self.face_vertices(i)
-        w = np.roll(v, -1, axis=0)
-        return float(np.linalg.norm(np.cross(v, w).sum(axis=0)) / 2)
+        return area_3d(self.face_vertices(i))
 
     @property
     def bounds(self) -> np.ndarray:
@@ -357,18 +208,7 @@ class Polyhedron:
         A prism here is what :meth:`prism` builds: a horizontal bottom face, a horizontal
         top face with the same outline, vertical sides.
         """
-        bottoms = [i for i in range(len(self.faces)) if self.face_normal(i)[2] < -0.999]
-        tops = [i for i in range(len(self.faces)) if self.face_normal(i)[2] > 0.999]
-        if len(bottoms) != 1 or len(tops) != 1:
-            return None
-        for i in range(len(self.faces)):
-            if i not in (bottoms[0], tops[0]) and abs(self.face_normal(i)[2]) > 1e-6:
-                return None
-        b = self.face_vertices(bottoms[0])[::-1, :2]
-        t = self.face_vertices(tops[0])[:, :2]
-        if len(b) != len(t):
-            return None
-        return b
+        return prism_footprint(self.vertices, self.faces)
 
     def plan_area_perimeter(self) -> tuple[float, float]:
         """Area (m²) and perimeter (m) of the horizontal projection (the plan outline).
@@ -376,28 +216,11 @@ class Polyhedron:
         A prism's footprint directly; any other solid (a room made of several parts, a
         sloped ceiling) through the union of its projected triangles. 0, 0 for an empty one.
         """
-        from shapely.geometry import Polygon
-        from shapely.ops import unary_union
-
-        fp = self.footprint()
-        if fp is not None:
-            poly = Polygon(fp)
-        else:
-            v, t = self.triangles()
-            tris = [Polygon(v[i, :2]) for i in t]
-            poly = unary_union([p for p in tris if p.area > 0])
-        if poly.is_empty:
-            return 0.0, 0.0
-        return float(poly.area), float(poly.length)
+        return plan_area_perimeter(self.vertices, self.faces)
 
     def volume(self) -> float:
         """Enclosed volume in m³ (divergence theorem; faces must be closed and outward)."""
-        vol = 0.0
-        for f in self.faces:
-            v = self.vertices[list(f)]
-            for j in range(1, len(v) - 1):
-                vol += float(np.dot(v[0], np.cross(v[j], v[j + 1])))
-        return abs(vol) / 6.0
+        return polyhedron_volume(self.vertices, self.faces)
 
     def triangles(self) -> tuple[np.ndarray, np.ndarray]:
         """Fan-triangulated mesh: ``(vertices (n,3) float64, triangles (m,3) int64)``.
@@ -405,10 +228,7 @@ class Polyhedron:
         Faces must be convex for a fan to be right; non-convex faces are triangulated
         by ear clipping on their plane.
         """
-        tris = []
-        for f in self.faces:
-            tris.extend(_triangulate_face(self.vertices, f))
-        return self.vertices, np.asarray(tris, dtype=np.int64).reshape(-1, 3)
+        return self.vertices, triangulate_faces(self.vertices, self.faces)
 
     def to_dict(self) -> dict:
         return {"vertices": self.vertices.tolist(), "faces": [list(f) for f in self.faces]}
@@ -417,70 +237,22 @@ class Polyhedron:
     def from_dict(cls, d: Mapping, where: str = "geometry") -> "Polyhedron":
         """Read :meth:`to_dict` output; ``ValueError`` naming ``where`` when it is malformed
         (vertices not (n, 3) finite numbers, faces not polygons of at least 3 valid indices)."""
-        d = _obj(d, where)
-        v = _numbers(_get(d, "vertices", where), f"{where}.vertices", (-1, 3))
+        d = as_object(d, where)
+        v = as_numbers(member(d, "vertices", where), f"{where}.vertices", (-1, 3))
         faces = []
-        for k, face in enumerate(_array(_get(d, "faces", where), f"{where}.faces")):
+        for k, face in enumerate(as_array(member(d, "faces", where), f"{where}.faces")):
             w = f"{where}.faces[{k}]"
-            idx = _array(face, w)
+            idx = as_array(face, w)
             if len(idx) < 3:
-                raise _Malformed(f"{w} has {len(idx)} vertices; a face needs at least 3")
+                raise Malformed(f"{w} has {len(idx)} vertices; a face needs at least 3")
             if any(isinstance(i, bool) or not isinstance(i, (int, np.integer)) for i in idx):
-                raise _Malformed(f"{w} must hold vertex indices (whole numbers)")
+                raise Malformed(f"{w} must hold vertex indices (whole numbers)")
             lo, hi = min(idx), max(idx)
             if lo < 0 or hi >= len(v):
                 bad = lo if lo < 0 else hi
-                raise _Malformed(f"{w} has vertex index {bad}, out of range for {len(v)} vertices")
+                raise Malformed(f"{w} has vertex index {bad}, out of range for {len(v)} vertices")
             faces.append(idx)
         return cls(v, faces)
-
-
-def _triangulate_face(vertices: np.ndarray, face: Sequence[int]) -> list[tuple[int, int, int]]:
-    idx = list(face)
-    if len(idx) == 3:
-        return [tuple(idx)]
-    v = vertices[idx]
-    w = np.roll(v, -1, axis=0)
-    n = np.cross(v, w).sum(axis=0)
-    # project to the plane's dominant axes
-    drop = int(np.argmax(np.abs(n)))
-    keep = [a for a in range(3) if a != drop]
-    p = v[:, keep]
-    sign = 1.0 if n[drop] >= 0 else -1.0
-    rem = list(range(len(idx)))
-    out = []
-    guard = 0
-    while len(rem) > 3 and guard < 10000:
-        guard += 1
-        m = len(rem)
-        for j in range(m):
-            a, b, c = rem[(j - 1) % m], rem[j], rem[(j + 1) % m]
-            cross = (p[b, 0] - p[a, 0]) * (p[c, 1] - p[a, 1]) - (p[b, 1] - p[a, 1]) * (p[c, 0] - p[a, 0])
-            if cross * sign <= 1e-15:
-                continue
-            inside = False
-            for o in rem:
-                if o in (a, b, c):
-                    continue
-                if _in_tri(p[o], p[a], p[b], p[c], sign):
-                    inside = True
-                    break
-            if not inside:
-                out.append((idx[a], idx[b], idx[c]))
-                rem.pop(j)
-                break
-        else:  # degenerate: fall back to a fan
-            break
-    for j in range(1, len(rem) - 1):
-        out.append((idx[rem[0]], idx[rem[j]], idx[rem[j + 1]]))
-    return out
-
-
-def _in_tri(q, a, b, c, sign) -> bool:
-    def s(p1, p2, p3):
-        return ((p2[0] - p1[0]) * (p3[1] - p1[1]) - (p2[1] - p1[1]) * (p3[0] - p1[0])) * sign
-
-    return s(a, b, q) >= 0 and s(b, c, q) >= 0 and s(c, a, q) >= 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -583,43 +355,43 @@ class Shape:
             "scope": self.scope.to_dict(),
             "geometry": self.geometry.to_dict(),
             "support": dict(self.support),
-            "attributes": _jsonable(self.attributes),
+            "attributes": jsonable(self.attributes),
             "log": list(self.log),
         }
 
     @classmethod
     def from_dict(cls, d: Mapping, where: str = "shape") -> "Shape":
         """Read :meth:`to_dict` output; ``ValueError`` naming ``where`` when it is malformed."""
-        d = _obj(d, where)
-        sid = _text(_get(d, "id", where), f"{where}.id")
+        d = as_object(d, where)
+        sid = as_text(member(d, "id", where), f"{where}.id")
         where = f"{where} ({sid!r})"
-        kind = _text(_get(d, "type", where), f"{where}.type")
+        kind = as_text(member(d, "type", where), f"{where}.type")
         try:
             kind = ShapeType.parse(kind)
         except ValueError as e:
-            raise _Malformed(f"{where}.type: {e}") from None
+            raise Malformed(f"{where}.type: {e}") from None
         scope = d.get("scope")
         grid = d.get("grid")
-        support = _obj(d.get("support", {}), f"{where}.support")
+        support = as_object(d.get("support", {}), f"{where}.support")
         return cls(
             id=sid,
             type=kind,
-            geometry=Polyhedron.from_dict(_get(d, "geometry", where), f"{where}.geometry"),
+            geometry=Polyhedron.from_dict(member(d, "geometry", where), f"{where}.geometry"),
             scope=Scope.from_dict(scope, f"{where}.scope") if scope else None,
-            storey=_integer(d.get("storey", 0), f"{where}.storey"),
-            name=_text(d.get("name", ""), f"{where}.name", optional=True) or "",
-            terminal=_flag(d.get("terminal", False), f"{where}.terminal"),
-            active=_flag(d.get("active", True), f"{where}.active"),
-            parent=_text(d.get("parent"), f"{where}.parent", optional=True),
-            children=tuple(_text(c, f"{where}.children[{i}]")
-                           for i, c in enumerate(_array(d.get("children", []), f"{where}.children"))),
-            grid=None if grid is None else tuple(_integer(g, f"{where}.grid[{i}]")
-                                                 for i, g in enumerate(_array(grid, f"{where}.grid"))),
-            support={_text(k, f"{where}.support key"): _number(v, f"{where}.support[{k!r}]", finite=False)
+            storey=as_integer(d.get("storey", 0), f"{where}.storey"),
+            name=as_text(d.get("name", ""), f"{where}.name", optional=True) or "",
+            terminal=as_flag(d.get("terminal", False), f"{where}.terminal"),
+            active=as_flag(d.get("active", True), f"{where}.active"),
+            parent=as_text(d.get("parent"), f"{where}.parent", optional=True),
+            children=tuple(as_text(c, f"{where}.children[{i}]")
+                           for i, c in enumerate(as_array(d.get("children", []), f"{where}.children"))),
+            grid=None if grid is None else tuple(as_integer(g, f"{where}.grid[{i}]")
+                                                 for i, g in enumerate(as_array(grid, f"{where}.grid"))),
+            support={as_text(k, f"{where}.support key"): as_number(v, f"{where}.support[{k!r}]", finite=False)
                      for k, v in support.items()},
-            attributes=_obj(d.get("attributes", {}), f"{where}.attributes"),
-            log=tuple(_text(e, f"{where}.log[{i}]")
-                      for i, e in enumerate(_array(d.get("log", []), f"{where}.log"))),
+            attributes=as_object(d.get("attributes", {}), f"{where}.attributes"),
+            log=tuple(as_text(e, f"{where}.log[{i}]")
+                      for i, e in enumerate(as_array(d.get("log", []), f"{where}.log"))),
         )
 
 
@@ -648,13 +420,13 @@ class Storey:
     @classmethod
     def from_dict(cls, d: Mapping, where: str = "storey") -> "Storey":
         """Read :meth:`to_dict` output; ``ValueError`` naming ``where`` when it is malformed."""
-        d = _obj(d, where)
+        d = as_object(d, where)
         elev = d.get("elevation")
-        return cls(_integer(_get(d, "index", where), f"{where}.index"),
-                   _number(_get(d, "floor_z", where), f"{where}.floor_z"),
-                   _number(_get(d, "ceiling_z", where), f"{where}.ceiling_z"),
-                   _text(d.get("name", ""), f"{where}.name", optional=True) or "",
-                   None if elev is None else _number(elev, f"{where}.elevation"))
+        return cls(as_integer(member(d, "index", where), f"{where}.index"),
+                   as_number(member(d, "floor_z", where), f"{where}.floor_z"),
+                   as_number(member(d, "ceiling_z", where), f"{where}.ceiling_z"),
+                   as_text(d.get("name", ""), f"{where}.name", optional=True) or "",
+                   None if elev is None else as_number(elev, f"{where}.elevation"))
 
 
 RELATION_KINDS = ("adjacency", "connectivity")
@@ -708,8 +480,8 @@ class Surface:
 
     @property
     def area(self) -> float:
-        v = self.polygon
-        return float(np.linalg.norm(np.cross(v, np.roll(v, -1, axis=0)).sum(axis=0)) / 2)
+        """Area in m²."""
+        return area_3d(self.polygon)
 
     @property
     def offset(self) -> float:
@@ -730,24 +502,24 @@ class Provenance:
     software: str = ""
 
     def to_dict(self) -> dict:
-        return {"method": self.method, "parameters": _jsonable(self.parameters), "seed": self.seed,
-                "timings": dict(self.timings), "trace": _jsonable(self.trace),
+        return {"method": self.method, "parameters": jsonable(self.parameters), "seed": self.seed,
+                "timings": dict(self.timings), "trace": jsonable(self.trace),
                 "source": self.source, "software": self.software}
 
     @classmethod
     def from_dict(cls, d: Mapping, where: str = "provenance") -> "Provenance":
         """Read :meth:`to_dict` output; ``ValueError`` naming ``where`` when it is malformed."""
-        d = _obj(d, where)
+        d = as_object(d, where)
         seed = d.get("seed")
-        timings = _obj(d.get("timings", {}), f"{where}.timings")
-        return cls(_text(d.get("method", ""), f"{where}.method", optional=True) or "",
-                   _obj(d.get("parameters", {}), f"{where}.parameters"),
-                   None if seed is None else _integer(seed, f"{where}.seed"),
-                   {_text(k, f"{where}.timings key"): _number(v, f"{where}.timings[{k!r}]", finite=False)
+        timings = as_object(d.get("timings", {}), f"{where}.timings")
+        return cls(as_text(d.get("method", ""), f"{where}.method", optional=True) or "",
+                   as_object(d.get("parameters", {}), f"{where}.parameters"),
+                   None if seed is None else as_integer(seed, f"{where}.seed"),
+                   {as_text(k, f"{where}.timings key"): as_number(v, f"{where}.timings[{k!r}]", finite=False)
                     for k, v in timings.items()},
-                   _obj(d.get("trace", {}) or {}, f"{where}.trace"),
-                   _text(d.get("source", ""), f"{where}.source", optional=True) or "",
-                   _text(d.get("software", ""), f"{where}.software", optional=True) or "")
+                   as_object(d.get("trace", {}) or {}, f"{where}.trace"),
+                   as_text(d.get("source", ""), f"{where}.source", optional=True) or "",
+                   as_text(d.get("software", ""), f"{where}.software", optional=True) or "")
 
 
 @dataclass(frozen=True, eq=False)
@@ -864,9 +636,7 @@ class BuildingModel:
     # ---------------------------------------------------------------- geometry
     def to_input_frame(self, points: np.ndarray, include_offset: bool = False) -> np.ndarray:
         """Map (n, 3) model-frame points to the input frame (optionally adding the offset)."""
-        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        out = p @ self.transform[:3, :3].T + self.transform[:3, 3]
-        return out + self.offset if include_offset else out
+        return to_input_frame(points, self.transform, self.offset if include_offset else None)
 
     def surfaces(self, types: Iterable = (ShapeType.INTERIOR,), active: Optional[bool] = True,
                  leaves: bool = False) -> list[Surface]:
@@ -904,21 +674,6 @@ class BuildingModel:
                 out.append(Surface(s.id, i, kind, g.face_vertices(i), n, s.storey, s.type))
         return out
 
-    # ---------------------------------------------------------------- graphs
-    def graph(self, kind: str = "connectivity", level: str = "space", include_exterior: bool = True):
-        """A networkx Graph of ``kind`` relations between spaces.
-
-        ``level="space"``: nodes are active interior (and exterior) spaces; relations
-        between their parts are lifted to them. ``level="subspace"``: nodes are the
-        innermost parts (cuboids / cells) and only relations recorded between parts are
-        used. Edge attributes ``via`` (wall or door) and ``weight`` (centroid distance, m);
-        node attributes ``name``, ``type``, ``centroid``, ``storey``. Same as
-        :func:`engine.topology.space_graph`.
-        """
-        from .topology.graph import space_graph
-
-        return space_graph(self, kind, level, include_exterior=include_exterior)
-
     # ---------------------------------------------------------------- JSON
     def to_dict(self) -> dict:
         return {
@@ -945,7 +700,7 @@ class BuildingModel:
         duplicate shape ids.
         """
         if not isinstance(d, Mapping):
-            raise FormatError(f"not a building-model JSON: the top level is {_json_kind(d)}, not an object "
+            raise FormatError(f"not a building-model JSON: the top level is {json_kind(d)}, not an object "
                               "with 'schema': 'indoor-building-model'", path)
         if d.get("schema") != "indoor-building-model":
             raise FormatError("not a building-model JSON (no 'schema': 'indoor-building-model')", path)
@@ -956,41 +711,39 @@ class BuildingModel:
         try:
             return cls._from_checked_dict(d)
         except (KeyError, TypeError, ValueError, IndexError) as e:
-            raise FormatError(f"malformed building-model JSON: {_error_text(e)}", path) from None
+            raise FormatError(f"malformed building-model JSON: {error_text(e)}", path) from None
 
     @classmethod
     def _from_checked_dict(cls, d: Mapping) -> "BuildingModel":
         shapes = [Shape.from_dict(s, f"shapes[{i}]")
-                  for i, s in enumerate(_array(d.get("shapes", []), "shapes"))]
+                  for i, s in enumerate(as_array(d.get("shapes", []), "shapes"))]
         storeys = [Storey.from_dict(s, f"storeys[{i}]")
-                   for i, s in enumerate(_array(d.get("storeys", []), "storeys"))]
+                   for i, s in enumerate(as_array(d.get("storeys", []), "storeys"))]
         relations = []
-        for i, r in enumerate(_array(d.get("relations", []), "relations")):
+        for i, r in enumerate(as_array(d.get("relations", []), "relations")):
             w = f"relations[{i}]"
-            r = _obj(r, w)
-            kind = _text(_get(r, "kind", w), f"{w}.kind")
+            r = as_object(r, w)
+            kind = as_text(member(r, "kind", w), f"{w}.kind")
             if kind not in RELATION_KINDS:
-                raise _Malformed(f"{w}.kind is {kind!r}; expected one of {list(RELATION_KINDS)}")
-            a, b = _text(_get(r, "a", w), f"{w}.a"), _text(_get(r, "b", w), f"{w}.b")
-            relations.append(Relation(kind, a, b, _text(r.get("via"), f"{w}.via", optional=True)))
+                raise Malformed(f"{w}.kind is {kind!r}; expected one of {list(RELATION_KINDS)}")
+            a, b = as_text(member(r, "a", w), f"{w}.a"), as_text(member(r, "b", w), f"{w}.b")
+            relations.append(Relation(kind, a, b, as_text(r.get("via"), f"{w}.via", optional=True)))
         transform = d.get("transform")
         offset = d.get("offset")
         return cls(
             shapes=tuple(shapes),
             storeys=tuple(storeys),
             relations=tuple(relations),
-            transform=np.eye(4) if transform is None else _numbers(transform, "transform", (4, 4)),
-            offset=np.zeros(3) if offset is None else _numbers(offset, "offset", (3,)),
+            transform=np.eye(4) if transform is None else as_numbers(transform, "transform", (4, 4)),
+            offset=np.zeros(3) if offset is None else as_numbers(offset, "offset", (3,)),
             provenance=Provenance.from_dict(d.get("provenance") or {}),
-            name=_text(d.get("name", ""), "name", optional=True) or "",
+            name=as_text(d.get("name", ""), "name", optional=True) or "",
         )
 
     def to_json(self, path: Optional[str | os.PathLike] = None, indent: Optional[int] = None) -> str:
         """Serialise; when ``path`` is given, write atomically (temporary name, then move)."""
         text = json.dumps(self.to_dict(), indent=indent)
         if path is not None:
-            from .fileutil import atomic_write_text
-
             atomic_write_text(path, text)
         return text
 
@@ -1005,7 +758,7 @@ class BuildingModel:
         that is not a model (see :meth:`from_dict`).
         """
         if isinstance(source, str) and source.lstrip().startswith("{"):
-            return cls.from_dict(_parse_json(source, None))
+            return cls.from_dict(parse_json(source, None))
         path = os.fspath(source)
         if not os.path.exists(path):
             raise InputError("file not found", path)
@@ -1021,7 +774,7 @@ class BuildingModel:
         except UnicodeDecodeError as e:
             raise FormatError(f"not UTF-8 text (byte 0x{data[e.start]:02x} at offset {e.start}); "
                               "a model JSON is UTF-8", path) from None
-        return cls.from_dict(_parse_json(text, path), path)
+        return cls.from_dict(parse_json(text, path), path)
 
     def summary(self) -> dict:
         """JSON-ready counts: storeys, spaces, walls, doors, relations."""
@@ -1035,46 +788,3 @@ class BuildingModel:
             "adjacency": len(self.relations_of("adjacency")),
             "connectivity": len(self.relations_of("connectivity")),
         }
-
-
-def _parse_json(text: str, path) -> Any:
-    """``json.loads(text)``; FormatError naming ``path`` (and the line) when it is not JSON."""
-    if not text.strip():
-        raise FormatError("the file is empty" if path is not None else "empty JSON text", path)
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as e:
-        where = f"line {e.lineno} column {e.colno}"
-        if e.pos >= len(text.rstrip()) or e.msg.startswith("Unterminated string"):
-            raise FormatError(f"truncated JSON: the text ends inside a value ({e.msg} at {where})", path) \
-                from None
-        raise FormatError(f"not readable as JSON: {e.msg} at {where}", path) from None
-    except RecursionError:
-        raise FormatError("not readable as JSON: nested too deeply", path) from None
-
-
-def _error_text(e: BaseException) -> str:
-    """The message of a parsing error (a KeyError's is the bare key)."""
-    if isinstance(e, KeyError):
-        return f"missing key {e.args[0]!r}" if e.args else "missing key"
-    return str(e) or e.__class__.__name__
-
-
-def _jsonable(x):
-    if isinstance(x, Mapping):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (np.floating,)):
-        return float(x)
-    if isinstance(x, enum.Enum):
-        return x.value
-    if hasattr(x, "__dataclass_fields__"):
-        from dataclasses import asdict
-
-        return _jsonable(asdict(x))
-    return x

@@ -14,7 +14,7 @@ import pytest
 
 from engine.change import (EXISTING, NEW, ChangeParams, RegistrationParams, cluster_points, detect_changes,
                            transform_model, write_change_outputs)
-from engine.evaluation.patches import patches_from_model
+from engine.evaluation.patches import patches_from_model, points_inside, project_to
 from engine.model import BuildingModel, Polyhedron, Shape, ShapeType, Storey
 from engine.pointcloud import PointCloud
 
@@ -46,8 +46,6 @@ def _sample(patch, density, rng):
     minx, miny, maxx, maxy = patch.geom.bounds
     n = rng.poisson(density * (maxx - minx) * (maxy - miny))
     xy = np.column_stack([rng.uniform(minx, maxx, n), rng.uniform(miny, maxy, n)])
-    from engine.evaluation.patches import points_inside
-
     xy = xy[points_inside(patch, xy)]
     return patch.to3d(xy)
 
@@ -98,8 +96,6 @@ def _removed_faces(model):
     for r in rooms:
         for w in walls:
             if r.normal @ w.normal < -0.99 and abs(r.rho + w.rho) < 1e-6:
-                from engine.evaluation.patches import project_to
-
                 if project_to(w.geom, w, r).intersection(r.geom).area > 0.5 * r.area:
                     out.add(r.key)
     return out

@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from engine.errors import InputError
+from engine.errors import Cancelled, InputError
 from engine.evaluation import (EvaluationParams, annotate_visibility, evaluate, load_model, patches_from_model,
                                write_evaluation_outputs)
 from engine.evaluation.patches import points_inside
@@ -225,8 +225,6 @@ def test_eval_demo_self(eval_demo):
 
 
 def test_progress_and_cancel():
-    from engine.errors import Cancelled
-
     seen = []
     evaluate(REF, REF, progress=lambda f, m: seen.append(f))
     assert seen[0] == 0.0 and seen[-1] == 1.0 and seen == sorted(seen)

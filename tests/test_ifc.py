@@ -4,14 +4,15 @@ import os
 import numpy as np
 import pytest
 
-ifcopenshell = pytest.importorskip("ifcopenshell")
+pytest.importorskip("ifcopenshell")
 import ifcopenshell.geom  # noqa: E402
 import ifcopenshell.util.element  # noqa: E402
 import ifcopenshell.validate  # noqa: E402
 
-from engine import (BuildingModel, FormatError, InputError, Polyhedron, Provenance, Relation,  # noqa: E402
-                    Shape, Storey)
+from engine import (BuildingModel, Cancelled, FormatError, InputError, Polyhedron, Provenance,  # noqa: E402
+                    Relation, Shape, Storey)
 from engine.ifc import IfcWriteParams, read_ifc, read_mesh, read_reference, write_ifc  # noqa: E402
+from engine.topology import space_graph  # noqa: E402
 
 H = 2.6  # storey height of the hand-built models, m
 T = 0.2  # wall thickness, m
@@ -263,7 +264,7 @@ def test_round_trip_footprints_relations_and_attributes(written):
     assert r["w2"].geometry.volume() == pytest.approx(9 * T * H - 0.9 * T * 2.0, rel=1e-6)
     assert r.provenance.method == "manhattan" and r.provenance.seed == 7
     assert r.provenance.parameters == {"eps": 0.05}
-    assert r.graph("connectivity").has_edge("r1", "c")
+    assert space_graph(r, "connectivity").has_edge("r1", "c")
 
 
 def test_identity_frame_ifc4x3_and_non_rigid_transform(tmp_path):
@@ -422,7 +423,7 @@ def test_real_fzk_haus(data_dir):
     by_door = sorted(tuple(sorted((names[r.a], names[r.b]))) for r in conn if r.via in doors)
     assert by_door == [("Bad", "Flur"), ("Buero", "Flur"), ("Flur", "Schlafzimmer")]
     assert all(r.via in doors or r.via is None for r in conn)
-    assert nx_connected(m.graph("connectivity"), min_nodes=5)
+    assert nx_connected(space_graph(m, "connectivity", include_exterior=True), min_nodes=5)
     # wall surfaces are there for the evaluation, in metres
     walls = m.surfaces(types=("wall",))
     assert 200 < sum(s.area for s in walls) < 600
@@ -495,8 +496,6 @@ def test_offset_as_map_conversion(tmp_path):
 
 
 def test_progress_and_cancel(tmp_path):
-    from engine import Cancelled
-
     m = hand_model()
     path = tmp_path / "p.ifc"
     seen = []

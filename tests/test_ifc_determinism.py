@@ -12,7 +12,7 @@ import textwrap
 import numpy as np
 import pytest
 
-ifcopenshell = pytest.importorskip("ifcopenshell")
+pytest.importorskip("ifcopenshell")
 import ifcopenshell.guid  # noqa: E402
 import ifcopenshell.util.element  # noqa: E402
 

@@ -2,7 +2,7 @@
 tessellate, read back (footprints, topology) — the plan/truth only, no scan simulated."""
 import pytest
 
-ifcopenshell = pytest.importorskip("ifcopenshell")
+pytest.importorskip("ifcopenshell")
 import ifcopenshell.geom  # noqa: E402
 import ifcopenshell.util.element  # noqa: E402
 import ifcopenshell.validate  # noqa: E402

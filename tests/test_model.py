@@ -6,6 +6,7 @@ import pytest
 
 from engine import BuildingModel, FormatError, Polyhedron, Relation, Shape, ShapeType, Storey
 from engine.model import Scope
+from engine.topology import space_graph
 
 
 def two_rooms():
@@ -62,10 +63,10 @@ def test_graphs_and_shortest_path():
     import networkx as nx
 
     m = two_rooms()
-    g = m.graph("connectivity")
+    g = space_graph(m, "connectivity")
     assert set(g.nodes) == {"r1", "r2"} and g.edges["r1", "r2"]["via"] == "d1"
     assert nx.shortest_path(g, "r1", "r2") == ["r1", "r2"]
-    assert m.graph("adjacency").edges["r1", "r2"]["via"] == "w1"
+    assert space_graph(m, "adjacency").edges["r1", "r2"]["via"] == "w1"
 
 
 def test_merged_space_levels():
@@ -75,10 +76,10 @@ def test_merged_space_levels():
     ab = Shape("ab", "interior", Polyhedron.box((0, 0, 0), (4, 2, 2)), children=("a", "b"))
     m = BuildingModel(shapes=(a, b, c, ab), relations=[
         Relation("connectivity", "a", "b"), Relation("connectivity", "b", "c", via="door")])
-    assert set(m.graph("connectivity", "space").nodes) == {"ab", "c"}
-    assert set(m.graph("connectivity", "space").edges) == {("ab", "c")} or \
-        set(m.graph("connectivity", "space").edges) == {("c", "ab")}
-    sub = m.graph("connectivity", "subspace")
+    assert set(space_graph(m, "connectivity", "space").nodes) == {"ab", "c"}
+    assert set(space_graph(m, "connectivity", "space").edges) == {("ab", "c")} or \
+        set(space_graph(m, "connectivity", "space").edges) == {("c", "ab")}
+    sub = space_graph(m, "connectivity", "subspace")
     assert set(sub.nodes) == {"a", "b", "c"} and sub.has_edge("a", "b") and sub.has_edge("b", "c")
     assert [s.id for s in m.leaves("ab")] == ["a", "b"] and m.top_level("a").id == "ab"
 

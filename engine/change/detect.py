@@ -26,14 +26,17 @@ from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from ..errors import EmptyCloudError
+from ..evaluation.coverage import PatchSupport, alpha_area, patch_support
+from ..evaluation.patches import patches_from_model
+from ..geometry.normals import knn_normals
+from ..geometry.transforms import apply_rotation, apply_transform, frame_transform
 from ..model import BuildingModel
 from ..pointcloud import PointCloud
 from ..progress import Progress
-from ..evaluation.coverage import PatchSupport, alpha_area, patch_support
-from ..evaluation.patches import patches_from_model
-from ..evaluation.loading import frame_transform
 from .registration import REGISTERED, UNREGISTERED, RegistrationParams, RegistrationResult, register
 
 __all__ = ["ChangeParams", "ChangeResult", "detect_changes", "cluster_points", "distance_threshold",
@@ -203,9 +206,6 @@ def cluster_points(xyz: np.ndarray, voxel: float) -> np.ndarray:
 
     ``xyz`` : (n, 3) float64 metres; returns (n,) int32 labels 0..k-1, largest first.
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
     if len(xyz) == 0:
         return np.zeros(0, dtype=np.int32)
@@ -236,19 +236,6 @@ def cluster_points(xyz: np.ndarray, voxel: float) -> np.ndarray:
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     return rank[point_lab].astype(np.int32)
-
-
-def _pca_normals(xyz: np.ndarray, query: np.ndarray, k: int) -> np.ndarray:
-    """(m, 3) unit normals of ``xyz[query]`` from their ``k`` nearest neighbours in ``xyz``."""
-    from scipy.spatial import cKDTree
-
-    k = int(min(max(k, 3), len(xyz)))
-    _, nb = cKDTree(xyz).query(xyz[query], k=k)
-    q = xyz[nb]  # (m, k, 3)
-    q = q - q.mean(axis=1, keepdims=True)
-    cov = np.einsum("mki,mkj->mij", q, q)
-    _, vec = np.linalg.eigh(cov)
-    return vec[:, :, 0]
 
 
 def _near_voxels(points: np.ndarray, seeds: np.ndarray, size: float) -> np.ndarray:
@@ -282,7 +269,7 @@ def _classify(patches, xyz, cloud, t, params: ChangeParams, r: float, should_sto
     if not params.use_normals:
         return patch_support(patches, xyz, r, search_distance=search, should_stop=should_stop)
     if cloud.normals is not None:
-        normals = cloud.normals.astype(np.float64) @ t[:3, :3].T
+        normals = apply_rotation(t, cloud.normals)
         return patch_support(patches, xyz, r, normals=normals, max_normal_angle=params.max_normal_angle,
                              search_distance=search, should_stop=should_stop)
     sup = patch_support(patches, xyz, r, search_distance=search, should_stop=should_stop)
@@ -296,7 +283,7 @@ def _classify(patches, xyz, cloud, t, params: ChangeParams, r: float, should_sto
     # neighbours come from the points around the new ones only (a smaller k-d tree)
     region = np.flatnonzero(_near_voxels(xyz, xyz[new0], 2 * params.normal_radius))
     pos = np.searchsorted(region, amb)
-    normals = _pca_normals(xyz[region], pos, params.normal_neighbours)
+    normals = knn_normals(xyz[region], max(params.normal_neighbours, 3), pos)
     sub = patch_support(patches, xyz[amb], r, normals=normals, max_normal_angle=params.max_normal_angle,
                         search_distance=search, should_stop=should_stop)
     on = sup.on_model.copy()
@@ -375,7 +362,7 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
                    should_stop=should_stop)
     claim = reg.registered or params.force
     t = reg.transform
-    xyz = cloud.xyz @ t[:3, :3].T + t[:3, 3]
+    xyz = apply_transform(t, cloud.xyz)
     p(0.4, "classifying points")
     patches = patches_from_model(model, params.classify_types)
     r = distance_threshold(params, reg)

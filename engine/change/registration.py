@@ -19,14 +19,17 @@ from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..errors import InputError, MissingDependencyError
+from ..evaluation.loading import transform_model
+from ..evaluation.patches import patches_from_model, sample_patch_grid
+from ..geometry.normals import knn_normals
+from ..geometry.transforms import apply_rotation, apply_transform
 from ..model import BuildingModel
 from ..progress import Progress
-from ..evaluation.loading import frame_transform, transform_model
-from ..evaluation.patches import patches_from_model, sample_patch_grid
 
-__all__ = ["RegistrationParams", "RegistrationResult", "register", "transform_model", "frame_transform",
+__all__ = ["RegistrationParams", "RegistrationResult", "register", "transform_model",
            "model_points", "registration_quality", "pca_normals", "voxel_subsample", "REGISTERED",
            "UNREGISTERED"]
 
@@ -201,16 +204,9 @@ WALL_NORMAL_Z = 0.5
 
 
 def pca_normals(xyz: np.ndarray, k: int = 8) -> np.ndarray:
-    """(n, 3) unit normals of points from their ``k`` nearest neighbours (PCA; sign arbitrary)."""
-    from scipy.spatial import cKDTree
-
-    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
-    k = int(min(max(k, 3), len(xyz)))
-    _, nb = cKDTree(xyz).query(xyz, k=k)
-    q = xyz[nb]
-    q = q - q.mean(axis=1, keepdims=True)
-    _, vec = np.linalg.eigh(np.einsum("mki,mkj->mij", q, q))
-    return vec[:, :, 0]
+    """(n, 3) unit normals of points from their ``k`` nearest neighbours (at least 3; PCA,
+    sign arbitrary): :func:`engine.geometry.normals.knn_normals`."""
+    return knn_normals(xyz, max(k, 3))
 
 
 def registration_quality(tree, mp: np.ndarray, mn: np.ndarray, pts: np.ndarray, distance: float,
@@ -272,10 +268,6 @@ def _translation(shift) -> np.ndarray:
     return m
 
 
-def _apply(t: np.ndarray, xyz: np.ndarray) -> np.ndarray:
-    return xyz @ t[:3, :3].T + t[:3, 3]
-
-
 def _icp(reg, source, target, t, params: RegistrationParams, p) -> tuple[np.ndarray, list]:
     """Coarse-to-fine point-to-plane ICP from ``t``; returns the transform and the stages."""
     coarse = {}
@@ -329,8 +321,6 @@ def register(model: BuildingModel, xyz: np.ndarray, params: Optional[Registratio
         coarse_start = initial is None and params.coarse_start
     fd = float(params.fitness_distance if fitness_distance is None else fitness_distance)
     xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
-    from scipy.spatial import cKDTree
-
     mp, mn = model_points(model, params.model_spacing, params.surface_types)
     tree = cKDTree(mp)
     check = voxel_subsample(xyz, params.voxel_size, params.quality_points)
@@ -340,8 +330,8 @@ def register(model: BuildingModel, xyz: np.ndarray, params: Optional[Registratio
     check_normals = pca_normals(check)
 
     def finish(t, stages, start):
-        fit, rmse, wall = registration_quality(tree, mp, mn, _apply(t, check), fd, params.model_spacing,
-                                               check_normals @ t[:3, :3].T)
+        fit, rmse, wall = registration_quality(tree, mp, mn, apply_transform(t, check), fd, params.model_spacing,
+                                               apply_rotation(t, check_normals))
         ok = fit >= params.min_fitness and not wall < params.min_wall_fitness  # NaN: no wall points
         attempt = {"start": start, "fitness": fit, "wall_fitness": _num(wall), "rmse_m": _num(rmse)}
         return RegistrationResult(t, float("nan"), fit, stages, rmse, REGISTERED if ok else UNREGISTERED, fd,
@@ -368,7 +358,7 @@ def register(model: BuildingModel, xyz: np.ndarray, params: Optional[Registratio
     attempts = list(best.attempts)
     if not best.registered and coarse_start:
         # coarse starts: translations on top of the initial transform
-        sub = _apply(init, check)
+        sub = apply_transform(init, check)
         lo, hi = np.percentile(sub, [1.0, 99.0], axis=0)  # robust to stray points
         starts = (("centroid", mp.mean(axis=0) - sub.mean(axis=0)),
                   ("bounding-box centre", 0.5 * (mp.min(axis=0) + mp.max(axis=0)) - 0.5 * (lo + hi)))
@@ -384,7 +374,7 @@ def register(model: BuildingModel, xyz: np.ndarray, params: Optional[Registratio
             if best.registered:
                 break
     p(0.95, "residual")
-    sp = _apply(best.transform, np.asarray(source.points))
+    sp = apply_transform(best.transform, np.asarray(source.points))
     dist, idx = tree.query(sp, distance_upper_bound=float(params.distances[-1]))
     ok = np.isfinite(dist)
     d = np.abs(np.einsum("ij,ij->i", sp[ok] - mp[idx[ok]], mn[idx[ok]]))

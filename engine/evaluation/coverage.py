@@ -10,6 +10,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from ..errors import Cancelled
+from ..geometry import alpha
 from .patches import PlanarPatch, points_inside
 
 __all__ = ["PatchSupport", "patch_support", "alpha_area", "thin_grid", "PointBuckets"]
@@ -21,15 +23,9 @@ CORNER_COS = float(np.cos(np.radians(45.0)))
 
 
 def thin_grid(xy: np.ndarray, cell: float) -> np.ndarray:
-    """Keep one point per ``cell``-sized square: (n, 2) float64 → (m, 2) float64, m ≤ n."""
-    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    if len(xy) == 0 or cell <= 0:
-        return xy
-    ij = np.floor((xy - xy.min(axis=0)) / cell).astype(np.int64)
-    ny = int(ij[:, 1].max()) + 1
-    rep = np.full((int(ij[:, 0].max()) + 1) * ny, -1, dtype=np.int64)
-    rep[ij[:, 0] * ny + ij[:, 1]] = np.arange(len(xy))  # one (the last) point per cell, no sort
-    return xy[rep[rep >= 0]]
+    """Keep one point per ``cell``-sized square of a grid starting at the points' minimum
+    corner (the last point of each, in cell order): (n, 2) float64 → (m, 2) float64, m ≤ n."""
+    return alpha.thin_grid(np.asarray(xy, dtype=np.float64).reshape(-1, 2), cell, anchor="min", keep="last")
 
 
 def alpha_area(xy: np.ndarray, r_alpha: float, *, thin: Optional[float] = None) -> float:
@@ -37,29 +33,11 @@ def alpha_area(xy: np.ndarray, r_alpha: float, *, thin: Optional[float] = None) 
     is below ``r_alpha`` (metres).
 
     ``xy`` : (n, 2) float64, metres. ``thin`` : the points are first thinned to one per
-    cell of a raster of this size (default ``r_alpha / 4``), which bounds the work while
-    the kept triangles stay far below ``r_alpha``.
+    cell of a raster of this size (:func:`thin_grid`, default ``r_alpha / 4``), which bounds
+    the work while the kept triangles stay far below ``r_alpha``.
     Fewer than 3 points, or collinear points, give 0.
     """
-    from scipy.spatial import Delaunay, QhullError
-
-    xy = thin_grid(xy, r_alpha / 4 if thin is None else thin)
-    if len(xy) < 3:
-        return 0.0
-    try:
-        tri = Delaunay(xy)
-    except (QhullError, ValueError):
-        return 0.0
-    p = xy[tri.simplices]  # (m, 3, 2)
-    a = np.linalg.norm(p[:, 1] - p[:, 2], axis=1)
-    b = np.linalg.norm(p[:, 0] - p[:, 2], axis=1)
-    c = np.linalg.norm(p[:, 0] - p[:, 1], axis=1)
-    area = 0.5 * np.abs((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
-                        - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0]))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        radius = a * b * c / (4.0 * area)
-    keep = (area > 0) & (radius < r_alpha)
-    return float(area[keep].sum())
+    return alpha.alpha_area(thin_grid(xy, r_alpha / 4 if thin is None else thin), r_alpha)
 
 
 @dataclass(frozen=True, eq=False)
@@ -164,8 +142,6 @@ def patch_support(patches: Sequence[PlanarPatch], xyz: np.ndarray, max_distance:
     buckets = PointBuckets(xyz, BUCKET_CELL)
     for j, pt in enumerate(patches):
         if should_stop is not None and should_stop():
-            from ..errors import Cancelled
-
             raise Cancelled("cancelled by the user")
         outline = np.vstack(pt.outline3d())
         cand = buckets.in_box(outline.min(axis=0) - search, outline.max(axis=0) + search)

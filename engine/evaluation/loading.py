@@ -1,9 +1,9 @@
 """Load a source or reference model from a file, whatever its format.
 
 ``.json`` → :meth:`BuildingModel.from_json`; ``.ifc`` → ``engine.ifc.read_ifc``;
-``.obj``/``.ply``/``.off``/``.stl`` meshes → ``engine.ifc.read_mesh`` when that reader is
-installed, else trimesh (each connected component becomes one shape whose triangles are
-merged back into planar faces by the evaluation).
+``.obj``/``.ply``/``.off``/``.stl`` meshes → ``engine.ifc.read_mesh`` (whose triangles are
+merged back into planar faces by the evaluation). :func:`mesh_to_model` makes a model of
+a triangle mesh in memory, one shape per connected component.
 """
 from __future__ import annotations
 
@@ -11,11 +11,15 @@ import logging
 import os
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
-from ..errors import FormatError, InputError, MissingDependencyError
+from ..errors import InputError
+from ..geometry.transforms import apply_transform
+from ..ifc import read_ifc, read_mesh
 from ..model import BuildingModel, Polyhedron, Provenance, Scope, Shape, ShapeType
 
-__all__ = ["load_model", "mesh_to_model", "MODEL_EXTENSIONS", "transform_model", "frame_transform"]
+__all__ = ["load_model", "mesh_to_model", "MODEL_EXTENSIONS", "transform_model"]
 
 log = logging.getLogger(__name__)
 
@@ -42,9 +46,6 @@ def mesh_to_model(vertices: np.ndarray, triangles: np.ndarray, *, shape_type=Sha
         raise InputError("the mesh has no faces")
     labels = np.zeros(len(v), dtype=np.int64)
     if components:
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components
-
         rows = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
         cols = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
         g = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(v), len(v)))
@@ -59,21 +60,6 @@ def mesh_to_model(vertices: np.ndarray, triangles: np.ndarray, *, shape_type=Sha
         shapes.append(Shape(id=f"mesh{k}", type=shape_type, geometry=Polyhedron(v[used], remap[ft]),
                             name=f"{name or 'mesh'} {k}", storey=-1))
     return BuildingModel(shapes=tuple(shapes), name=name, provenance=Provenance(method="mesh", source=name))
-
-
-def _read_mesh_trimesh(path: str) -> BuildingModel:
-    try:
-        import trimesh
-    except ImportError:  # pragma: no cover - trimesh is a listed dependency
-        raise MissingDependencyError("trimesh", "reading OBJ/PLY meshes") from None
-    try:
-        mesh = trimesh.load(path, force="mesh", process=True)
-    except Exception as e:  # trimesh raises many types on bad files
-        raise FormatError(f"not readable as a mesh: {e}", path) from None
-    faces = getattr(mesh, "faces", None)
-    if faces is None or len(faces) == 0:
-        raise FormatError("the file holds no triangles (a point cloud is not a model)", path)
-    return mesh_to_model(np.asarray(mesh.vertices), np.asarray(faces), name=os.path.basename(path))
 
 
 def load_model(path: str | os.PathLike) -> BuildingModel:
@@ -96,42 +82,17 @@ def load_model(path: str | os.PathLike) -> BuildingModel:
     if ext == ".json":
         return BuildingModel.from_json(path)
     if ext == ".ifc":
-        try:
-            from ..ifc import read_ifc
-        except ImportError:
-            raise InputError("reading IFC needs engine.ifc.read_ifc, which this build does not have", path) \
-                from None
         return read_ifc(path)
     if ext in MESH_EXTENSIONS:
-        try:
-            from ..ifc import read_mesh
-        except ImportError:
-            read_mesh = None
-        if read_mesh is not None:
-            return read_mesh(path)
-        return _read_mesh_trimesh(path)
+        return read_mesh(path)
     raise InputError(f"unsupported model file type {ext or '(none)'!r}; expected one of "
                      f"{', '.join(MODEL_EXTENSIONS)}", path)
 
 
 def transform_model(model: BuildingModel, matrix: np.ndarray) -> BuildingModel:
     """A copy of ``model`` with every shape's geometry moved by the 4×4 rigid ``matrix``."""
-    m = np.asarray(matrix, dtype=np.float64)
-    r, t = m[:3, :3], m[:3, 3]
     shapes = []
     for s in model.shapes:
-        v = s.geometry.vertices @ r.T + t
+        v = apply_transform(matrix, s.geometry.vertices)
         shapes.append(s.with_(geometry=Polyhedron(v, s.geometry.faces), scope=Scope.of_points(v)))
     return model.with_(shapes=tuple(shapes))
-
-
-def frame_transform(src_transform, src_offset, dst_transform, dst_offset) -> np.ndarray:
-    """4×4 float64 mapping model-frame coordinates of one dataset to those of another.
-
-    Each dataset maps its model frame to file coordinates by ``p_file = T @ p + offset``
-    (:class:`BuildingModel` ``transform``/``offset``; a point cloud has ``T = I``).
-    Returns ``inv(T_dst) ∘ (T_src p + offset_src − offset_dst)``.
-    """
-    a = np.asarray(src_transform, dtype=np.float64).reshape(4, 4).copy()
-    a[:3, 3] += np.asarray(src_offset, dtype=np.float64) - np.asarray(dst_offset, dtype=np.float64)
-    return np.linalg.inv(np.asarray(dst_transform, dtype=np.float64).reshape(4, 4)) @ a

@@ -25,15 +25,16 @@ threshold), per buffer size; per-sample distances for colour maps.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Mapping, Optional
 
 import numpy as np
 
 from ..errors import InputError
+from ..geometry.transforms import frame_transform
 from ..model import BuildingModel
 from ..progress import Progress
-from .loading import frame_transform, transform_model
+from .loading import transform_model
 from .patches import PlanarPatch, overlap_on, safe_union, patches_from_model, points_inside, sample_patch_grid
 
 __all__ = ["EvaluationParams", "EvaluationResult", "evaluate", "DEFAULT_BUFFERS", "GROUPS"]
@@ -137,8 +138,6 @@ class EvaluationResult:
 
     def to_dict(self) -> dict:
         """JSON-ready summary: curves, per-surface shares, verdicts, parameters."""
-        from dataclasses import asdict
-
         def clean(a):
             return [None if not np.isfinite(x) else float(x) for x in np.asarray(a, dtype=float)]
 

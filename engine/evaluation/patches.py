@@ -13,14 +13,17 @@ from dataclasses import dataclass
 from typing import Iterable, Optional, Sequence
 
 import numpy as np
+import shapely
+from shapely import affinity
+from shapely.geometry import Polygon
 
+from ..geometry.planes import plane_frame
 from ..model import BuildingModel, ShapeType
 
 __all__ = [
     "PlanarPatch",
     "patches_from_model",
     "merge_coplanar",
-    "plane_frame",
     "project_to",
     "overlap_on",
     "points_inside",
@@ -36,23 +39,6 @@ COPLANAR_DIST = 1e-3
 """... and their planes within 1 mm (metres)."""
 MIN_AREA = 1e-6
 """Patches smaller than this (m²) are degenerate and dropped."""
-
-
-def plane_frame(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors ``u, v`` (each (3,) float64) spanning the plane with ``normal``.
-
-    For vertical planes ``u`` is horizontal and ``v`` points up; for horizontal planes
-    ``u`` is close to the x axis. ``(u, v, n)`` is right-handed.
-    """
-    n = np.asarray(normal, dtype=np.float64)
-    a = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    if abs(n[2]) < 0.9:
-        u = np.cross(a, n)
-    else:
-        u = a - n * (a @ n)
-    u /= np.linalg.norm(u)
-    v = np.cross(n, u)
-    return u, v
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,8 +121,6 @@ def _parts(geom) -> list:
 
 
 def _make_patch(key, shape, face, kind, polygon3d, normal) -> Optional[PlanarPatch]:
-    from shapely.geometry import Polygon
-
     n = np.asarray(normal, dtype=np.float64)
     if not np.isfinite(n).all() or np.linalg.norm(n) < 0.5:
         return None
@@ -189,8 +173,6 @@ def patches_from_model(model: BuildingModel, types: Iterable = (ShapeType.INTERI
 
 def project_to(geom, src: PlanarPatch, dst: PlanarPatch):
     """Orthogonal projection of a geometry in ``src``'s frame onto ``dst``'s plane/frame."""
-    from shapely import affinity
-
     a = float(src.u @ dst.u)
     b = float(src.v @ dst.u)
     d = float(src.u @ dst.v)
@@ -239,8 +221,6 @@ GRID = 1e-6
 
 
 def _repair(g):
-    import shapely
-
     try:
         g = shapely.make_valid(g).buffer(0)
     except shapely.errors.GEOSException:
@@ -255,8 +235,6 @@ def safe_intersection(a, b):
     """``a ∩ b``; on a GEOS topology error (nearly degenerate input) retry on repaired
     geometries snapped to a 1 µm grid; if that fails too, the overlap is counted as empty
     (and logged)."""
-    import shapely
-
     try:
         return a.intersection(b)
     except shapely.errors.GEOSException:
@@ -269,8 +247,6 @@ def safe_intersection(a, b):
 
 def safe_union(geoms):
     """Boolean union of a list of geometries, robust like :func:`safe_intersection`."""
-    import shapely
-
     try:
         return shapely.unary_union(geoms)
     except shapely.errors.GEOSException:
@@ -279,8 +255,6 @@ def safe_union(geoms):
 
 def _strip(patch: PlanarPatch, other: PlanarPatch, b: float):
     """The part of ``patch`` (its frame) within distance ``b`` of ``other``'s plane."""
-    from shapely.geometry import Polygon
-
     g = np.array([other.normal @ patch.u, other.normal @ patch.v])
     c = float(other.normal @ patch.origin - other.rho)
     gn = float(np.linalg.norm(g))
@@ -314,8 +288,6 @@ def overlap_on(target: PlanarPatch, other: PlanarPatch, b: float):
 
 def points_inside(patch: PlanarPatch, xy: np.ndarray) -> np.ndarray:
     """(n,) bool — which (n, 2) frame coordinates fall inside the patch outline."""
-    import shapely
-
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(xy) == 0:
         return np.zeros(0, dtype=bool)
@@ -344,8 +316,6 @@ def sample_patch_grid(patch: PlanarPatch, spacing: float) -> np.ndarray:
 
 def polygon_triangles(patch: PlanarPatch) -> tuple[np.ndarray, np.ndarray]:
     """Triangulate the patch: ``(vertices (n, 3) float64, triangles (m, 3) int64)``."""
-    import shapely
-
     tris = shapely.constrained_delaunay_triangles(patch.geom)
     verts, faces = [], []
     for t in getattr(tris, "geoms", []):

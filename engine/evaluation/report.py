@@ -22,6 +22,7 @@ from typing import Mapping, Optional
 import numpy as np
 
 from ..fileutil import atomic_path, atomic_write_text
+from ..io import ply
 from .metrics import EvaluationResult
 from .patches import polygon_triangles
 
@@ -31,48 +32,10 @@ GREY = (160, 160, 160)
 
 
 def write_ply_arrays(path, vertex: Mapping[str, np.ndarray], faces: Optional[np.ndarray] = None) -> None:
-    """Write a binary little-endian PLY with the given vertex properties (and triangles).
-
-    ``vertex`` : name → (n,) array; ``x``, ``y``, ``z`` first. Types follow the arrays
-    (float64 → double, float32 → float, uint8 → uchar, int32 → int, ...).
-    ``faces`` : (m, 3) int triangles or None.
-    """
-    types = {np.dtype(np.float64): "double", np.dtype(np.float32): "float", np.dtype(np.uint8): "uchar",
-             np.dtype(np.int8): "char", np.dtype(np.int16): "short", np.dtype(np.uint16): "ushort",
-             np.dtype(np.int32): "int", np.dtype(np.uint32): "uint"}
-    cols = {}
-    for k, a in vertex.items():
-        a = np.asarray(a)
-        if a.dtype == np.bool_:
-            a = a.astype(np.uint8)
-        elif a.dtype == np.int64:
-            a = a.astype(np.int32)
-        elif a.dtype not in types:
-            a = a.astype(np.float64)
-        cols[k] = a.reshape(-1)
-    n = len(next(iter(cols.values()))) if cols else 0
-    dt = np.dtype([(k, a.dtype.newbyteorder("<")) for k, a in cols.items()])
-    data = np.empty(n, dtype=dt)
-    for k, a in cols.items():
-        data[k] = a
-    head = ["ply", "format binary_little_endian 1.0", "comment written by indoor engine.evaluation",
-            f"element vertex {n}"]
-    head += [f"property {types[a.dtype]} {k}" for k, a in cols.items()]
-    f = None if faces is None else np.asarray(faces, dtype=np.int32).reshape(-1, 3)
-    if f is not None:
-        head += [f"element face {len(f)}", "property list uchar int vertex_indices"]
-    head.append("end_header")
-    buf = io.BytesIO()
-    buf.write(("\n".join(head) + "\n").encode("ascii"))
-    buf.write(data.tobytes())
-    if f is not None:
-        fd = np.empty(len(f), dtype=[("n", "u1"), ("v", "<i4", (3,))])
-        fd["n"] = 3
-        fd["v"] = f
-        buf.write(fd.tobytes())
-    with atomic_path(path, suffix=".ply") as tmp:
-        with open(tmp, "wb") as fh:
-            fh.write(buf.getvalue())
+    """Write a binary little-endian PLY with the given vertex properties (and triangles):
+    :func:`engine.io.ply.write_ply_arrays` (types follow the arrays; ``x``, ``y``, ``z`` first;
+    ``faces`` (m, 3) int or None)."""
+    ply.write_ply_arrays(path, vertex, faces, comments=("written by indoor engine.evaluation",))
 
 
 def ramp_colors(values: np.ndarray, lo: float, hi: float, *, reverse: bool = False) -> np.ndarray:
@@ -118,7 +81,7 @@ def write_patch_mesh(path, patches, values: np.ndarray, *, lo: float = 0.0, hi: 
 
 
 def _plot(result: EvaluationResult, path: str, title: str) -> None:
-    import matplotlib
+    import matplotlib  # heavy, and only for this plot
 
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure

@@ -34,206 +34,14 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from ..geometry.alpha import adaptive_alpha, alpha_area, alpha_geometry, alpha_triangles, local_alpha
+from ..geometry.alpha import thin_grid as thin_points
+from .params import CoverageParams
+
 __all__ = ["adaptive_alpha", "local_alpha", "cell_heights", "alpha_triangles", "alpha_area", "alpha_geometry",
            "thin_points", "Face", "CellSet", "CellCoverage", "measure_coverage", "cellset_from_polygons"]
 
 log = logging.getLogger(__name__)
-
-
-# --------------------------------------------------------------------------- alpha shapes
-def thin_points(pts: np.ndarray, cell: float) -> np.ndarray:
-    """Keep one point per grid cell (the first met).
-
-    Parameters
-    ----------
-    pts : (n, d) float64 — metres.
-    cell : grid size, metres (<= 0: no thinning).
-
-    Returns
-    -------
-    (m, d) float64, m <= n. Empty in, empty out.
-    """
-    pts = np.asarray(pts, dtype=np.float64)
-    if cell <= 0 or len(pts) == 0:
-        return pts
-    keys = np.floor(pts / cell).astype(np.int64)
-    _, first = np.unique(keys, axis=0, return_index=True)
-    return pts[np.sort(first)]
-
-
-def local_alpha(xy: np.ndarray, r_alpha: float, factor: float, r_max: float, k: int = 8) -> np.ndarray:
-    """Per-point circumradius bounds that follow the local point spacing, metres.
-
-    ``clip(factor × s_i, r_alpha, r_max)`` with ``s_i`` the median nearest-neighbour distance
-    over point i and its ``k`` nearest neighbours: where a scan samples a surface sparsely
-    (a room's edge far from a mobile path, a corridor's far end), a fixed r_α leaves most of
-    the surface uncovered; the median over a neighbourhood keeps a stray point far from the
-    others from getting a large bound. ``xy`` : (n, 2) float64 metres; returns (n,) float64.
-    """
-    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    if len(xy) <= k or factor <= 0 or r_max <= r_alpha:
-        return np.full(len(xy), float(r_alpha))
-    from scipy.spatial import cKDTree
-
-    d, nn = cKDTree(xy).query(xy, k=k + 1)
-    s = np.median(d[:, 1][nn], axis=1)
-    return np.clip(factor * s, r_alpha, r_max)
-
-
-def _alpha_simplices(xy: np.ndarray, r_alpha) -> np.ndarray:
-    """(m, 3) int64 vertex indices of the alpha-shape triangles of ``xy`` (see
-    :func:`alpha_triangles`); ``r_alpha`` is a float or an (n,) bound per point (a triangle
-    is kept under the smallest bound of its corners)."""
-    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    if len(xy) < 3:
-        return np.zeros((0, 3), dtype=np.int64)
-    from scipy.spatial import Delaunay, QhullError
-
-    try:
-        tri = Delaunay(xy)
-    except (QhullError, ValueError):
-        return np.zeros((0, 3), dtype=np.int64)
-    t = xy[tri.simplices]
-    a = np.linalg.norm(t[:, 1] - t[:, 2], axis=1)
-    b = np.linalg.norm(t[:, 0] - t[:, 2], axis=1)
-    c = np.linalg.norm(t[:, 0] - t[:, 1], axis=1)
-    area2 = np.abs((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1])
-                   - (t[:, 1, 1] - t[:, 0, 1]) * (t[:, 2, 0] - t[:, 0, 0]))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = a * b * c / (2.0 * area2)
-    bound = np.asarray(r_alpha, dtype=np.float64)
-    if bound.ndim:
-        bound = bound[tri.simplices].min(axis=1)
-    keep = np.isfinite(r) & (r < bound)
-    return tri.simplices[keep].astype(np.int64)
-
-
-def alpha_triangles(xy: np.ndarray, r_alpha: float) -> np.ndarray:
-    """Triangles of the 2-D alpha shape: Delaunay triangles with circumradius < ``r_alpha``.
-
-    Parameters
-    ----------
-    xy : (n, 2) float64 — metres.
-    r_alpha : float — metres.
-
-    Returns
-    -------
-    (m, 3, 2) float64 — triangle corners, metres. Empty (0, 3, 2) for fewer than three
-    points or collinear points.
-    """
-    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    return xy[_alpha_simplices(xy, r_alpha)].reshape(-1, 3, 2)
-
-
-def alpha_area(xy: np.ndarray, r_alpha: float, clip: Optional[tuple] = None) -> float:
-    """Area of the 2-D alpha shape of ``xy`` (m²).
-
-    ``clip`` : optional ``(lo (2,), hi (2,))`` box; triangles are clipped to it (exactly,
-    with shapely) when some corner lies outside. Fewer than three points: 0.
-    """
-    t = alpha_triangles(xy, r_alpha)
-    if len(t) == 0:
-        return 0.0
-    if clip is not None:
-        lo, hi = np.asarray(clip[0], float), np.asarray(clip[1], float)
-        outside = np.any((t < lo - 1e-12) | (t > hi + 1e-12), axis=(1, 2))
-        inner = t[~outside]
-        total = float(np.sum(_tri_area(inner)))
-        if outside.any():
-            import shapely
-
-            box = shapely.box(lo[0], lo[1], hi[0], hi[1])
-            polys = shapely.polygons(t[outside])
-            total += float(np.sum(shapely.area(shapely.intersection(polys, box))))
-        return total
-    return float(np.sum(_tri_area(t)))
-
-
-def _tri_area(t: np.ndarray) -> np.ndarray:
-    return 0.5 * np.abs((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1])
-                        - (t[:, 1, 1] - t[:, 0, 1]) * (t[:, 2, 0] - t[:, 0, 0]))
-
-
-def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap: float = 0.0,
-                   tolerance: float = 1e-9, local_factor: float = 0.0, r_max: float = 0.0):
-    """The alpha shape of ``xy`` as one shapely (Multi)Polygon (union of its triangles).
-
-    Parameters
-    ----------
-    xy : (n, 2) float64 — metres.
-    r_alpha : circumradius bound, metres.
-    blockers : sequence of (2, 2) segments (metres) no triangle may cross: a triangle with
-        corners strictly on both sides of a blocker's line (beyond ``tolerance``) where it
-        meets the segment is dropped — so the shape never bridges a wall.
-    snap : points within this distance of a blocker (and within its extent) are moved onto
-        it first, so the shape reaches the wall instead of stopping half a point spacing
-        short of it (metres; 0: no snapping). The side most of them came from is the
-        blocker's room side: a triangle meeting the blocker may then have no corner on the
-        other side (this stops triangles between the snapped points of the two faces of a
-        wall).
-
-    local_factor, r_max : when ``r_max > r_alpha``, each point's bound is raised to
-        ``local_factor`` × the local spacing, at most ``r_max`` (:func:`local_alpha`).
-
-    Returns
-    -------
-    shapely geometry; an empty GeometryCollection when there is no triangle.
-    """
-    import shapely
-
-    xy = np.array(xy, dtype=np.float64).reshape(-1, 2)
-    segs = np.asarray(blockers, dtype=np.float64).reshape(-1, 2, 2)
-    room_side = np.zeros(len(segs))
-    if len(segs) and snap > 0 and len(xy):
-        from scipy.spatial import cKDTree
-
-        tree = cKDTree(xy)
-        moves = []
-        for k, (p, q) in enumerate(segs):
-            d = q - p
-            L = float(np.linalg.norm(d))
-            if L <= 0:
-                continue
-            u = d / L
-            idx = np.asarray(tree.query_ball_point((p + q) / 2, L / 2 + snap), dtype=np.int64)
-            if len(idx) == 0:
-                continue
-            rel = xy[idx] - p
-            t = rel @ u
-            sd = rel @ np.array([-u[1], u[0]])
-            m = (np.abs(sd) <= snap) & (t >= 0) & (t <= L)
-            # the side the points came from (the room's side of this wall face)
-            room_side[k] = np.sign(np.sum(np.sign(sd[m])))
-            moves.append((idx[m], p + t[m, None] * u))
-        for idx, proj in moves:
-            xy[idx] = proj
-    bound = local_alpha(xy, r_alpha, local_factor, r_max) if r_max > r_alpha else r_alpha
-    simp = _alpha_simplices(xy, bound)
-    if len(simp) == 0:
-        return shapely.GeometryCollection()
-    t = xy[simp]
-    polys = shapely.polygons(t)
-    if len(segs):
-        lines = shapely.linestrings(segs)
-        li, ti = shapely.STRtree(polys).query(lines, predicate="intersects")
-        if len(li):
-            p0 = segs[li, 0]
-            d = segs[li, 1] - p0
-            nrm = np.column_stack([-d[:, 1], d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
-            sd = np.einsum("kij,kj->ki", t[ti] - p0[:, None, :], nrm)
-            bad = (sd.max(axis=1) > tolerance) & (sd.min(axis=1) < -tolerance)
-            # no corner on the far side of a face whose points came from one side
-            side = room_side[li]
-            bad |= (side != 0) & np.any(sd * side[:, None] < -tolerance, axis=1)
-            keep = np.ones(len(polys), bool)
-            keep[ti[bad]] = False
-            polys = polys[keep]
-        if len(polys) == 0:
-            return shapely.GeometryCollection()
-    try:  # Delaunay triangles form a valid coverage: fast path
-        return shapely.coverage_union_all(polys)
-    except Exception:  # pragma: no cover - older GEOS
-        return shapely.union_all(polys)
 
 
 # --------------------------------------------------------------------------- adapter
@@ -529,20 +337,6 @@ def _layer_height(z: np.ndarray) -> float:
     return float(np.median(near)) if len(near) else float(np.median(z))
 
 
-def adaptive_alpha(xy: np.ndarray, r_alpha: float, factor: float, sample: int = 20_000) -> float:
-    """``max(r_alpha, factor × median nearest-neighbour distance of xy)`` (metres).
-
-    ``xy`` : (n, 2) float64 metres; a fixed sample of at most ``sample`` points is used."""
-    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    if factor <= 0 or len(xy) < 3:
-        return float(r_alpha)
-    from scipy.spatial import cKDTree
-
-    q = xy[:: max(1, len(xy) // sample)]
-    d, _ = cKDTree(xy).query(q, k=2)
-    return float(max(r_alpha, factor * np.median(d[:, 1])))
-
-
 def _face_band(f: Face, zr: np.ndarray, ceiling_z: np.ndarray, band: float) -> tuple:
     """(z0, z1) of the part of face ``f`` whose wall coverage is measured, metres."""
     cells = [f.a] if f.b < 0 else [f.a, f.b]
@@ -555,10 +349,8 @@ def _face_band(f: Face, zr: np.ndarray, ceiling_z: np.ndarray, band: float) -> t
     return max(z0, top - band), top
 
 
-def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.ndarray, *,
-                     shape_buffer: float, r_alpha: float, thin: float, min_wall_coverage: float = 0.2,
-                     wall_band: float = 0.6, alpha_spacing_factor: float = 7.0,
-                     r_alpha_max: float = 0.0, should_check=None) -> CellCoverage:
+def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.ndarray,
+                     params: CoverageParams = CoverageParams(), *, should_check=None) -> CellCoverage:
     """Measure the per-cell and per-face coverage once (see the module doc).
 
     Parameters
@@ -566,24 +358,14 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
     cells : CellSet
     xyz_wall : (n, 3) float64 — wall ("vertical") points, metres.
     xyz_horizontal : (m, 3) float64 — floor/ceiling points, metres.
-    shape_buffer : δ, metres: points within δ of a face belong to it.
-    r_alpha : circumradius bound of the alpha shapes, metres.
-    thin : points are thinned to one per cell of this grid (metres) before measuring; also
-        the voxel of the inside-area estimate.
-    min_wall_coverage : a face whose wall coverage is at least this share of its area is a
-        seen wall: no ceiling alpha triangle may cross it (so the ceiling's alpha shape never
-        bridges a wall, whatever r_α and the point spacing).
-    wall_band : the wall coverage of a face is measured in the band of this height under
-        the ceiling over it (metres; the higher of the two cells' ceiling heights, the
-        top of the cells where no ceiling is seen): walls reach the ceiling, furniture
-        rarely does, so cupboard sides do not read as walls. <= 0: the whole face.
-    alpha_spacing_factor : r_α is raised to this many median nearest-neighbour distances of
-        the thinned ceiling points when that is larger (sparse scans: a fixed r_α leaves
-        the gaps of a sparse sampling uncovered; walls are kept apart by the blocking
-        faces, not by a small r_α). 0: r_α as given.
-    r_alpha_max : the ceiling's alpha shape follows the local spacing of the ceiling points
-        up to this bound (:func:`local_alpha`, with ``alpha_spacing_factor``), metres;
-        <= the global r_α: one bound everywhere.
+    params : CoverageParams — δ (``shape_buffer``: points within δ of a face belong to it);
+        r_α; the thinning grid (``coverage_grid``, also the voxel of the inside-area
+        estimate); ``min_wall_coverage`` (a face covered this much is a seen wall that no
+        ceiling alpha triangle may cross, so the ceiling never bridges a wall); ``wall_band``
+        (wall coverage is measured in this band under the ceiling over the face: walls reach
+        the ceiling, furniture rarely does; <= 0: the whole face); ``alpha_spacing_factor`` and
+        ``r_alpha_max`` (the ceiling's alpha shape follows the local spacing of the ceiling
+        points, :func:`local_alpha`, up to ``r_alpha_max``).
     should_check : optional callable polled between faces (cancellation).
 
     Returns
@@ -593,10 +375,12 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
     import shapely
     from scipy.spatial import cKDTree
 
+    shape_buffer, r_alpha, thin = params.shape_buffer, params.r_alpha, params.coverage_grid
+    min_wall_coverage, wall_band = params.min_wall_coverage, params.wall_band
+    alpha_spacing_factor, r_alpha_max = params.alpha_spacing_factor, params.r_alpha_max
     n = len(cells)
     area = cells.areas
     zr = cells.z_range
-    zmid = zr.mean(axis=1)
     hw = np.asarray(xyz_horizontal, dtype=np.float64).reshape(-1, 3)
     vw = np.asarray(xyz_wall, dtype=np.float64).reshape(-1, 3)
     hw = thin_points(hw, thin)
@@ -605,7 +389,6 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
 
     # --- ceilings and floors: which cell holds each horizontal point
     hc, upper, ceiling_z, floor_z = cell_heights(cells, hw)
-    ok = hc >= 0
 
     # --- faces: wall points within δ of the face's footprint segment
     face = np.zeros(len(cells.faces))

@@ -25,6 +25,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..geometry.polygon import polygon_area
 from ..model import BuildingModel, Relation, Shape, ShapeType
 from .geometry import box_of, shared_faces, union_of_boxes
 
@@ -246,8 +247,7 @@ def _merged_shape(sid: str, kind: ShapeType, members: list[Shape]) -> Shape:
     elif kind == ShapeType.INTERIOR:
         fp = geom.footprint()
         if fp is not None:
-            x, y = fp[:, 0], fp[:, 1]
-            attrs["area"] = float(abs(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)) / 2)
+            attrs["area"] = polygon_area(fp)
         attrs["height"] = float(hi[2] - lo[2])
     line = f"merge: {len(members)} connected {kind.value} part(s) -> {sid}"
     return Shape(id=sid, type=kind, geometry=geom, storey=members[0].storey, terminal=True,

@@ -8,9 +8,8 @@ import os
 import uuid
 from typing import Optional
 
-import numpy as np
-
 from ..errors import InputError, MissingDependencyError, printable
+from ..jsonfields import jsonable
 
 __all__ = [
     "PSET_PROVENANCE", "PSET_SHAPE", "PSET_SUPPORT", "PSET_STOREY", "WRITABLE_SCHEMAS",
@@ -47,9 +46,7 @@ def require_ifcopenshell(purpose: str):
 
 def dumps(value) -> str:
     """Compact JSON text for property values (numpy arrays and scalars become lists/numbers)."""
-    from ..model import _jsonable
-
-    return json.dumps(_jsonable(value), separators=(",", ":"))
+    return json.dumps(jsonable(value), separators=(",", ":"))
 
 
 def loads(text, default=None):
@@ -70,12 +67,6 @@ def check_path(path: str | os.PathLike) -> str:
     if os.path.isdir(p):
         raise InputError("is a folder, not a file", p)
     return p
-
-
-def rigid_part(transform: np.ndarray, tol: float) -> bool:
-    """True when the 3×3 part of ``transform`` (4, 4) is a rotation (orthonormal, det +1)."""
-    r = np.asarray(transform, dtype=np.float64)[:3, :3]
-    return bool(np.allclose(r.T @ r, np.eye(3), atol=tol) and np.linalg.det(r) > 0)
 
 
 def safe_text(text) -> str:

@@ -18,6 +18,7 @@ world coordinates (minus a whole-metre offset when they are far from the origin)
 """
 from __future__ import annotations
 
+import json
 import logging
 import os
 import re
@@ -25,8 +26,11 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
+from shapely.geometry import Polygon
+from shapely.ops import unary_union
 
-from ..errors import FormatError, InputError, is_valid_text
+from ..errors import FormatError, InputError, MissingDependencyError, is_valid_text
+from ..geometry.transforms import apply_transform
 from ..model import BuildingModel, Polyhedron, Provenance, Relation, Shape, ShapeType, Storey
 from ..progress import Progress
 from .common import (PSET_PROVENANCE, PSET_SHAPE, PSET_STOREY, PSET_SUPPORT, READABLE_SCHEMAS, check_path,
@@ -161,8 +165,6 @@ def _open(path: str):
 def _parse_errors(log_text: str) -> list:
     """Messages of the error-level entries of ifcopenshell's log (text or JSON format): the
     parser logs bad entities and dangling references there and goes on without them."""
-    import json
-
     out = []
     for line in (log_text or "").splitlines():
         line = line.strip()
@@ -229,7 +231,7 @@ class _Reader:
 
         def to_model(v):
             q = np.asarray(v, dtype=np.float64).reshape(-1, 3) - placed_offset
-            return q @ tinv[:3, :3].T + tinv[:3, 3]
+            return apply_transform(tinv, q)
 
         # storeys
         info = []
@@ -518,9 +520,6 @@ def _polyhedron(v: np.ndarray, tri: np.ndarray, prm: IfcReadParams) -> Optional[
 
 
 def _as_prism(v, tri, normals, areas, prm: IfcReadParams) -> Optional[Polyhedron]:
-    from shapely.geometry import Polygon
-    from shapely.ops import unary_union
-
     tol = prm.prism_tol
     z = v[np.unique(tri), 2]
     zmin, zmax = z.min(), z.max()
@@ -564,8 +563,6 @@ def read_mesh(path: str | os.PathLike, *, default_type: ShapeType | str = ShapeT
     try:
         import trimesh
     except ImportError:  # pragma: no cover
-        from ..errors import MissingDependencyError
-
         raise MissingDependencyError("trimesh", "reading meshes") from None
     default_type = ShapeType.parse(default_type)
     kwargs = {"split_objects": True, "group_material": False} if p.lower().endswith(".obj") else {}

@@ -45,11 +45,13 @@ import numpy as np
 
 from ..errors import InputError, OutputError
 from ..fileutil import atomic_path
+from ..geometry.transforms import apply_transform, is_rigid
 from ..model import BuildingModel, Polyhedron, Shape, ShapeType
 from ..progress import Progress
 from .common import (PSET_PROVENANCE, PSET_SHAPE, PSET_STOREY, PSET_SUPPORT, WRITABLE_SCHEMAS, dumps,
-                     global_id, iso_timestamp, require_ifcopenshell, rigid_part, safe_text,
-                     source_date_epoch)
+                     global_id, iso_timestamp, require_ifcopenshell, safe_text, source_date_epoch)
+from .writer_geometry import (clean_ring, common_face, default_storeys, door_size, opening_geometry,
+                              wall_axis)
 
 __all__ = ["IfcWriteParams", "write_ifc", "build_ifc", "TYPE_COLOURS"]
 
@@ -65,10 +67,6 @@ TYPE_COLOURS = {
 """Surface colour (red, green, blue in 0..1) and transparency (0 opaque .. 1 clear) per type."""
 
 
-_SAME_POINT = 1e-9
-"""Distance (m) under which two consecutive ring vertices are one."""
-_VERTICAL_AXIS = 1e-6
-"""Norm of the horizontal part of a unit normal under which the normal is vertical."""
 
 
 @dataclass(frozen=True)
@@ -199,8 +197,8 @@ class _Writer:
         self.geom = {}  # shape id -> Polyhedron in the written frame
         self.styles = {}
         self.contained = {}  # storey entity id -> list of products
-        self.tables = {}  # id(Polyhedron) -> face normals and vertices (see _face_table)
-        self.storey_list = list(model.storeys) or _default_storeys(model)
+        self.tables = {}  # id(Polyhedron) -> face normals and vertices (see face_table)
+        self.storey_list = list(model.storeys) or default_storeys(model)
         self.keys = {}  # ifc entity id -> GlobalId key (see _own)
         self.owners = {}  # GlobalId key -> ifc entity id
         self.seed = model.provenance.seed
@@ -280,7 +278,7 @@ class _Writer:
         m = self.model
         t = np.asarray(m.transform, dtype=np.float64)
         in_site = self.params.georeference == "placement"
-        if rigid_part(t, self.params.rigid_tol):
+        if is_rigid(t, self.params.rigid_tol):
             site = t.copy()
             bake = None
         else:
@@ -293,8 +291,7 @@ class _Writer:
         for s in m.shapes:
             g = s.geometry
             if bake is not None:
-                v = g.vertices @ bake[:3, :3].T + bake[:3, 3]
-                g = Polyhedron(v, g.faces)
+                g = Polyhedron(apply_transform(bake, g.vertices), g.faces)
             self.geom[s.id] = g
         self.storey_z = []
         for st in self.storey_list:
@@ -372,7 +369,7 @@ class _Writer:
         fp = g.footprint()
         zmin, zmax = g.bounds[:, 2]
         if fp is not None and zmax - zmin > 0:
-            fp = _clean_ring(fp - origin[:2])
+            fp = clean_ring(fp - origin[:2])
             if fp is not None:
                 f = self.f
                 profile = f.createIfcArbitraryClosedProfileDef("AREA", None, self._polyline(fp))
@@ -551,7 +548,7 @@ class _Writer:
             extra = []
             fp = g.footprint()
             if fp is not None:
-                ring = _clean_ring(fp - origin[:2])
+                ring = clean_ring(fp - origin[:2])
                 if ring is not None:
                     curves = f.createIfcGeometricCurveSet([self._polyline(ring)])
                     extra.append(f.createIfcShapeRepresentation(self.footprint, "FootPrint",
@@ -591,7 +588,7 @@ class _Writer:
             self._placement(e, container, origin)
             extra = []
             if s.type == ShapeType.WALL:
-                axis = _wall_axis(s, g)
+                axis = wall_axis(s, g)
                 if axis is not None:
                     a = axis - origin[:2]
                     extra.append(f.createIfcShapeRepresentation(self.axis, "Axis", "Curve2D",
@@ -607,7 +604,7 @@ class _Writer:
                 thick = float(s.attributes.get("thickness", size[0]))
                 length, height = float(size[1]), float(zmax - zmin)
                 holes = [d for d in doors_of.get(s.id, [])]
-                hole_area = sum(_door_wh(d)[0] * _door_wh(d)[1] for d in holes)
+                hole_area = sum(door_size(d)[0] * door_size(d)[1] for d in holes)
                 self._qto(e, "Qto_WallBaseQuantities", {
                     "Length": length, "Width": thick, "Height": height, "GrossSideArea": length * height,
                     "NetSideArea": max(length * height - hole_area, 0.0), "GrossVolume": vol,
@@ -643,7 +640,7 @@ class _Writer:
                 continue
             g = self.geom[d.id]
             e = self._root("IfcDoor", ("shape", d.id), predefined_type="DOOR", name=d.name or d.id)
-            w, h = _door_wh(d)
+            w, h = door_size(d)
             e.OverallWidth, e.OverallHeight = float(w), float(h)
             container = self._container_of(d)
             origin = self._origin_of(g)
@@ -659,7 +656,7 @@ class _Writer:
                 continue
             op = self._root("IfcOpeningElement", ("opening", d.id), predefined_type="OPENING",
                             name=f"Opening {d.name or d.id}")
-            og = _opening_geometry(d, self.geom[d.id], self.geom[d.parent], self.params.opening_margin)
+            og = opening_geometry(d, self.geom[d.id], self.geom[d.parent], self.params.opening_margin)
             self._placement(op, wall, origin)
             item, rtype = self._solid(og, origin)
             op.Representation = f.createIfcProductDefinitionShape(
@@ -720,7 +717,8 @@ class _Writer:
                 for w in elems:
                     if (s.id, self.ent[w.id].id()) in done:
                         continue
-                    common = _common_face(self.geom[s.id], self.geom[w.id], prm, self.tables)
+                    common = common_face(self.geom[s.id], self.geom[w.id], prm.boundary_gap, prm.boundary_cos,
+                                         prm.min_boundary_area, self.tables)
                     if common is None:
                         continue
                     io = "EXTERNAL" if s.type == ShapeType.EXTERIOR else "NOTDEFINED"
@@ -745,7 +743,9 @@ class _Writer:
         self.api.boundary.edit_attributes(f, entity=b, relating_space=space, related_building_element=elem,
                                           physical_or_virtual=phys, internal_or_external=io)
         if common is None and elem_shape is not None:
-            common = _common_face(self.geom[space_id], self.geom[elem_shape], self.params, self.tables)
+            prm = self.params
+            common = common_face(self.geom[space_id], self.geom[elem_shape], prm.boundary_gap,
+                                 prm.boundary_cos, prm.min_boundary_area, self.tables)
         if common is not None:
             poly2, origin, normal, u = common
             loc = origin - self.origin[space.id()]
@@ -755,18 +755,7 @@ class _Writer:
         return b
 
 
-# --------------------------------------------------------------------------- geometry helpers
-def _default_storeys(model: BuildingModel) -> list:
-    """One storey spanning every shape, for a model without storeys."""
-    from ..model import Storey
-
-    shapes = [s for s in model.shapes if s.type != ShapeType.NONE and len(s.geometry.vertices)]
-    if not shapes:
-        return [Storey(0, 0.0, 0.0, "Storey 0")]
-    b = np.array([s.bounds for s in shapes])
-    return [Storey(0, float(b[:, 0, 2].min()), float(b[:, 1, 2].max()), "Storey 0")]
-
-
+# --------------------------------------------------------------------------- entities
 def _is_space_entity(e) -> bool:
     return e.is_a("IfcSpace") or e.is_a("IfcExternalSpatialElement")
 
@@ -775,112 +764,3 @@ def _find_pset(product, name):
     import ifcopenshell.util.element as ue
 
     return ue.get_psets(product).get(name)
-
-
-def _clean_ring(ring: np.ndarray, tol: float = _SAME_POINT) -> Optional[np.ndarray]:
-    """Drop repeated consecutive vertices of a closed ring; None when fewer than 3 remain."""
-    r = np.asarray(ring, dtype=np.float64)
-    keep = np.linalg.norm(r - np.roll(r, 1, axis=0), axis=1) > tol
-    r = r[keep]
-    return r if len(r) >= 3 else None
-
-
-def _door_wh(d: Shape) -> tuple[float, float]:
-    b = d.geometry.bounds
-    w = float(d.attributes.get("width", np.sort(d.scope.size[:2])[1]))
-    h = float(d.attributes.get("height", b[1, 2] - b[0, 2]))
-    return w, h
-
-
-def _wall_axis(s: Shape, g: Polyhedron) -> Optional[np.ndarray]:
-    """(2, 2) float64 — the wall's centre line (metres) along its longer horizontal side."""
-    sc = s.scope
-    if sc.size[0] <= 0:
-        return None
-    x, y = sc.axes[0, :2], sc.axes[1, :2]
-    o = sc.origin[:2] + y * sc.size[1] / 2
-    return np.array([o, o + x * sc.size[0]])
-
-
-def _opening_geometry(door: Shape, g: Polyhedron, wall_g: Polyhedron, margin: float) -> Polyhedron:
-    """The door's box enlarged by ``margin`` beyond each side of the wall (metres)."""
-    sc = door.scope
-    ax = sc.axes
-    # the horizontal scope axis closest to the wall's thin direction
-    wsc = Shape("_w", ShapeType.WALL, wall_g).scope
-    thin = wsc.axes[int(np.argmin(wsc.size[:2]))]
-    k = int(np.argmax([abs(ax[0] @ thin), abs(ax[1] @ thin)]))
-    lo = np.zeros(3)
-    size = np.array(sc.size, dtype=np.float64)
-    # reach through the whole wall thickness plus the margin
-    wall_thick = float(np.min(wsc.size[:2]))
-    centre_k = (sc.center - wsc.center) @ ax[k]
-    half = max(size[k] / 2, wall_thick / 2 + abs(centre_k)) + margin
-    lo[k] = size[k] / 2 - half
-    size[k] = 2 * half
-    corners2 = []
-    base = sc.origin + ax.T @ lo
-    for a, b in ((0, 0), (1, 0), (1, 1), (0, 1)):
-        corners2.append(base[:2] + ax[0, :2] * size[0] * a + ax[1, :2] * size[1] * b)
-    zmin, zmax = g.bounds[:, 2]
-    return Polyhedron.prism(np.array(corners2), zmin, zmax)
-
-
-def _plane_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit in-plane axes (u, w) of a plane with unit normal ``n`` (u horizontal when possible)."""
-    u = np.array([-n[1], n[0], 0.0])
-    if np.linalg.norm(u) < _VERTICAL_AXIS:
-        u = np.array([1.0, 0.0, 0.0])
-    u /= np.linalg.norm(u)
-    w = np.cross(n, u)
-    return u, w / np.linalg.norm(w)
-
-
-def _face_table(g: Polyhedron) -> list:
-    """[(unit outward normal (3,), vertices (k, 3))] of every face of ``g``."""
-    return [(g.face_normal(i), g.face_vertices(i)) for i in range(len(g.faces))]
-
-
-def _common_face(space_g: Polyhedron, elem_g: Polyhedron, prm: IfcWriteParams, tables: Optional[dict] = None):
-    """The largest common region of an outward space face and an anti-parallel element face.
-
-    Returns ``(polygon (k, 2) float64 in the plane frame, origin (3,), normal (3,), u (3,))``
-    — the normal is the space face's outward normal — or None when the shapes do not touch.
-    """
-    from shapely.geometry import Polygon
-
-    sb, eb = space_g.bounds, elem_g.bounds
-    if np.any(sb[0] > eb[1] + prm.boundary_gap) or np.any(eb[0] > sb[1] + prm.boundary_gap):
-        return None
-    best = None
-    tables = {} if tables is None else tables
-    for g in (space_g, elem_g):
-        if id(g) not in tables:
-            tables[id(g)] = _face_table(g)
-    for n, vs in tables[id(space_g)]:
-        if not np.any(n):
-            continue
-        d = float(n @ vs[0])
-        u, w = _plane_basis(n)
-        ps = None
-        for m, ve in tables[id(elem_g)]:
-            if -(n @ m) < prm.boundary_cos:
-                continue
-            if abs(float(n @ ve[0]) - d) > prm.boundary_gap:
-                continue
-            if ps is None:
-                ps = Polygon(np.column_stack([(vs - vs[0]) @ u, (vs - vs[0]) @ w])).buffer(0)
-            pe = Polygon(np.column_stack([(ve - vs[0]) @ u, (ve - vs[0]) @ w])).buffer(0)
-            inter = ps.intersection(pe)
-            if inter.is_empty:
-                continue
-            parts = getattr(inter, "geoms", [inter])
-            for part in parts:
-                if part.geom_type != "Polygon" or part.area < prm.min_boundary_area:
-                    continue
-                if best is None or part.area > best[0]:
-                    ring = np.asarray(part.exterior.coords)[:-1]
-                    best = (part.area, ring, vs[0].copy(), n, u)
-    if best is None:
-        return None
-    return best[1], best[2], best[3], best[4]

@@ -16,12 +16,16 @@ Vertex properties understood (other scalar properties go to ``cloud.fields`` by 
 Comments written by :func:`write_ply` and read back: ``comment indoor_offset X Y Z`` (the
 cloud's removed offset, metres) and ``comment indoor_scanner I X Y Z`` (scanner position of
 scan ``I`` in the file's frame). Elements other than ``vertex`` (faces...) are skipped.
+
+:func:`write_ply_arrays` writes any named vertex arrays and triangles (the coloured meshes
+and points of the evaluation and the change detection); :func:`write_ply` is the same
+writer with a cloud's attributes.
 """
 from __future__ import annotations
 
 import os
 import re
-from typing import Optional
+from typing import Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -33,7 +37,7 @@ from ._common import (DEFAULT_PARAMS, ReadParams, check_file, colors_to_u8, fini
                       parse_count)
 from ._text import count_lines, iter_text_chunks, parse_rows, take_lines
 
-__all__ = ["read_ply", "write_ply"]
+__all__ = ["read_ply", "write_ply", "write_ply_arrays"]
 
 _PLY_TYPES = {
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
@@ -542,15 +546,58 @@ def write_ply(path, cloud: PointCloud, *, binary: bool = True, dtype: str = "f8"
             v2 = v.reshape(n, -1)
             for i in range(v2.shape[1]):
                 cols.append((f"{name}__{i}", code, v2[:, i]))
-    lines = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
-             "comment written by indoor-reconstruction engine.io.write_ply"]
+    comments = ["written by indoor-reconstruction engine.io.write_ply"]
     if np.any(cloud.offset != 0):
-        lines.append("comment indoor_offset " + " ".join(repr(float(v)) for v in cloud.offset))
+        comments.append("indoor_offset " + " ".join(repr(float(v)) for v in cloud.offset))
     if cloud.scanner_positions is not None:
         for i, s in enumerate(cloud.scanner_positions):
-            lines.append(f"comment indoor_scanner {i} " + " ".join(repr(float(v)) for v in s))
+            comments.append(f"indoor_scanner {i} " + " ".join(repr(float(v)) for v in s))
+    _write(path, n, cols, None, binary, comments)
+
+
+_ARRAY_CODES = {"f8", "f4", "u1", "i1", "i2", "u2", "i4", "u4"}
+"""numpy types :func:`write_ply_arrays` writes as they are (kind and byte size)."""
+
+
+def write_ply_arrays(path, vertex: Mapping[str, np.ndarray], faces: Optional[np.ndarray] = None, *,
+                     binary: bool = True, comments: Sequence[str] = ("written by indoor engine.io",)) -> None:
+    """Write a PLY of the given vertex properties (and triangles), atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    vertex : name → (n,) array; ``x``, ``y``, ``z`` first. Types follow the arrays
+        (float64 → double, float32 → float, uint8 → uchar, int32 → int, ...; bool → uchar,
+        int64 → int, anything else → double).
+    faces : (m, 3) int triangles or None.
+    binary : little-endian binary (default) or ASCII.
+    comments : header comment lines.
+    """
+    cols = []
+    for k, a in vertex.items():
+        a = np.asarray(a)
+        if a.dtype == np.bool_:
+            a = a.astype(np.uint8)
+        elif a.dtype == np.int64:
+            a = a.astype(np.int32)
+        elif not (a.dtype.isnative and f"{a.dtype.kind}{a.dtype.itemsize}" in _ARRAY_CODES):
+            a = a.astype(np.float64)
+        cols.append((k, f"{a.dtype.kind}{a.dtype.itemsize}", a.reshape(-1)))
+    n = len(cols[0][2]) if cols else 0
+    f = None if faces is None else np.asarray(faces, dtype=np.int32).reshape(-1, 3)
+    _write(path, n, cols, f, binary, comments)
+
+
+def _write(path, n: int, cols: list, faces: Optional[np.ndarray], binary: bool,
+           comments: Sequence[str]) -> None:
+    """The PLY writer: ``cols`` is [(name, numpy type code such as "f8", (n,) values)],
+    ``faces`` (m, 3) int32 triangles or None; written through a temporary file."""
+    lines = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0"]
+    lines += [f"comment {c}" for c in comments]
     lines.append(f"element vertex {n}")
     lines += [f"property {_NP_TO_PLY[c]} {nm}" for nm, c, _ in cols]
+    if faces is not None:
+        lines += [f"element face {len(faces)}", "property list uchar int vertex_indices"]
     lines.append("end_header")
     header = ("\n".join(lines) + "\n").encode("ascii")
     with atomic_path(path, suffix=".ply") as tmp:
@@ -561,12 +608,19 @@ def write_ply(path, cloud: PointCloud, *, binary: bool = True, dtype: str = "f8"
                 for nm, _, v in cols:
                     rec[nm] = v
                 rec.tofile(f)
+                if faces is not None:
+                    fd = np.empty(len(faces), dtype=[("n", "u1"), ("v", "<i4", (3,))])
+                    fd["n"] = 3
+                    fd["v"] = faces
+                    fd.tofile(f)
             else:
                 fmts = ["%.17g" if c == "f8" else "%.9g" if c == "f4" else "%d" for _, c, _ in cols]
                 table = np.empty((n, len(cols)), dtype=np.float64)
                 for k, (_, _, v) in enumerate(cols):
                     table[:, k] = v
                 np.savetxt(f, table, fmt=fmts, delimiter=" ")
+                if faces is not None:
+                    np.savetxt(f, np.column_stack([np.full(len(faces), 3), faces]), fmt="%d", delimiter=" ")
 
 
 def _field_code(name: str, v: np.ndarray) -> str:

@@ -9,8 +9,10 @@ from __future__ import annotations
 import logging
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..errors import EmptyCloudError, MissingDependencyError
+from ..geometry.normals import knn_normals
 from ..pointcloud import PointCloud
 from ..progress import Progress
 from .params import CleanParams, NormalParams
@@ -96,8 +98,6 @@ def remove_statistical_outliers(cloud: PointCloud, neighbors: int, std_ratio: fl
 
     Returns the filtered cloud and the (n,) bool mask of kept points.
     """
-    from scipy.spatial import cKDTree
-
     n = len(cloud)
     if n <= neighbors + 1:
         return cloud, np.ones(n, bool)
@@ -203,7 +203,7 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     bad = (~np.isfinite(nrm).all(axis=1) | (np.linalg.norm(nrm, axis=1) < 0.5)
            | ((nrm[:, 0] == 0.0) & (nrm[:, 1] == 0.0)))
     if bad.any():  # too few neighbours within the radius (sparse, far from the scanner)
-        nrm[bad] = _knn_normals(cloud.xyz, np.nonzero(bad)[0], params.fallback_knn)
+        nrm[bad] = knn_normals(cloud.xyz, params.fallback_knn, np.nonzero(bad)[0])
     if params.orient_to_scanner:
         s = _scanner_of_points(cloud)
         if s is not None:
@@ -212,19 +212,6 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
             nrm[flip] *= -1.0
     p(1.0, "normals done")
     return cloud.with_(normals=nrm.astype(np.float32))
-
-
-def _knn_normals(xyz: np.ndarray, idx: np.ndarray, k: int) -> np.ndarray:
-    """(len(idx), 3) PCA normals of the points ``idx`` over their ``k`` nearest neighbours."""
-    from scipy.spatial import cKDTree
-
-    k = int(min(k, len(xyz)))
-    _, nb = cKDTree(xyz).query(xyz[idx], k=k, workers=-1)
-    nb = nb.reshape(len(idx), k)
-    q = xyz[nb] - xyz[nb].mean(axis=1, keepdims=True)
-    cov = np.einsum("nki,nkj->nij", q, q)
-    _, vec = np.linalg.eigh(cov)
-    return vec[:, :, 0]
 
 
 def _scanner_of_points(cloud: PointCloud):

@@ -60,13 +60,8 @@ closer to ``typical_storey`` wins). Feet are only chosen on evidence metres cann
 building over 500 m wide — because a single 9.8-unit storey is also a hall in metres.
 With no plausible unit the answer is "m" with a low confidence.
 
-Degenerate clouds (:func:`check_degenerate`)
---------------------------------------------
-Too few distinct points, all points identical, collinear or coplanar (robust PCA extents
-of the sample against the largest extent, the local noise and, once the units are known,
-``min_thickness``), and no structure (fewer than ``min_planar_share`` of the sample's
-neighbourhoods are planar: uniform noise). Each raises
-:class:`~engine.errors.ReconstructionError` naming the file, within a second at 1M points.
+Degenerate clouds are refused by :func:`.checks.check_degenerate` (re-exported here), which
+also holds the sample and :class:`FrameParams`.
 """
 from __future__ import annotations
 
@@ -78,7 +73,10 @@ from typing import Optional
 import numpy as np
 
 from ..errors import InputError, ReconstructionError
+from ..io import units_warning
 from ..pointcloud import PointCloud
+from .checks import (FrameParams, FrameSample, area_weights, check_degenerate, check_shape, checked_sample,
+                     frame_sample, planar_mask, robust_extent, source_name)
 
 __all__ = ["FrameParams", "UnitGuess", "UpGuess", "UNITS", "UP_AXES", "up_rotation", "detect_units",
            "detect_up", "check_degenerate", "normalize_frame"]
@@ -89,84 +87,6 @@ UNITS = {"m": 1.0, "mm": 0.001, "cm": 0.01, "in": 0.0254, "ft": 0.3048}
 """Unit name → metres per file unit."""
 UP_AXES = ("z", "-z", "y", "-y", "x", "-x")
 """The file axis that points up."""
-
-
-@dataclass(frozen=True)
-class FrameParams:
-    """Settings of the frame checks (metres where a unit is given; the rest are relative)."""
-
-    sample_points: int = 50_000
-    """Size of the (spatially even) sample the statistics are computed on."""
-    presample: int = 4
-    """The sample is thinned on a voxel grid from a random sample this many times larger."""
-    neighbours: int = 16
-    """k of the PCA normals of the sample."""
-    planar_curvature: float = 0.1
-    """A neighbourhood is planar when its smallest PCA eigenvalue is below this share of the
-    sum (a disc of radius r with noise σ: σ²/(r²/2 + σ²), below 0.1 when r > 3σ; 16 uniform
-    random points: about 0.2)."""
-    min_spread: float = 0.05
-    """... and its middle eigenvalue reaches this share of the largest (the neighbours of a
-    point far from a mobile scanner's path often lie on one scan line)."""
-    axis_tolerance: float = math.radians(15.0)
-    """A normal within this of an axis is parallel to it, radians."""
-    steep_normal: float = 0.5
-    """|n_z| below this is a steep (wall or furniture side) point in the floor/ceiling test."""
-    cone_angle: float = math.radians(15.0)
-    """Half-angle of the cone around the scanner's nadir and zenith, radians (inside the
-    20–35° blind cone of terrestrial scanners)."""
-    min_cone_points: int = 30
-    """Sample points needed in the two cones of an axis for the blind-cone cue."""
-    cone_clear: float = 0.8
-    """The blind-cone asymmetry (n₊ − n₋)/(n₊ + n₋) of the up axis must reach this ..."""
-    cone_other: float = 0.5
-    """... while every other axis stays below this."""
-    rotate_margin: float = 1.0
-    """Another axis replaces z only when its geometric score beats z's by this (natural
-    log of area share / extent; rotated presets lead by 1.3–3.2, a z-up 2 m × 3 m corridor
-    would trail by 0.8)."""
-    min_patch: int = 4
-    """A furniture top is a patch: at least this many such sample points within its cell
-    and the 8 around, at one height (isolated points are sampling artefacts)."""
-    min_clutter_share: float = 0.002
-    """The furniture-top cue counts when such surfaces hold this share of the horizontal
-    area (lever-weighted; furnished presets 0.003–0.03, empty ones below 0.001) ..."""
-    min_clutter_points: int = 20
-    """... and holds this many sample points (furnished presets: 38–860; a stray patch
-    under a real ceiling: 3) ..."""
-    clutter_clear: float = 0.5
-    """... and (lower − upper)/(lower + upper) reaches this in magnitude (furnished presets:
-    0.95–1)."""
-    min_layer_coverage: float = 0.15
-    """A horizontal layer covering this share of the footprint is dominant (a floor or a
-    ceiling; desks and shelves cover less)."""
-    side_contrast: float = 0.3
-    """|above − below|/(above + below) of the steep points a dominant layer needs to be a
-    floor or a ceiling."""
-    storey_height: tuple = (2.2, 6.0)
-    """Plausible floor-to-ceiling height of a storey, metres."""
-    typical_storey: float = 2.8
-    """When two units make the storey plausible, the one closer to this height wins, metres."""
-    building_extent: tuple = (2.0, 500.0)
-    """Plausible horizontal extent of a scanned building, metres."""
-    scanner_height: tuple = (0.8, 2.5)
-    """Plausible height of a scanner above the floor it stands on, metres."""
-    min_distinct: int = 10
-    """Fewer distinct points than this is degenerate."""
-    flat_ratio: float = 1e-3
-    """A PCA extent below this share of the largest is zero (collinear, coplanar)."""
-    flat_noise: float = 10.0
-    """... or, for the thinnest axis, below this many times the local noise (one plane)."""
-    min_thickness: float = 0.2
-    """In metres (units known): a cloud thinner than this along its thinnest PCA axis is
-    flat, narrower than this along the second is a line."""
-    min_planar_share: float = 0.25
-    """Fewer planar neighbourhoods than this share means no structure (scans: 0.6–0.95,
-    uniform noise in a box: about 0.02)."""
-    min_up_confidence: float = 0.5
-    """:func:`normalize_frame` refuses an automatic up axis below this confidence."""
-    min_units_confidence: float = 0.5
-    """... and applies a detected unit other than metres only from this confidence."""
 
 
 @dataclass(frozen=True)
@@ -231,155 +151,16 @@ def up_rotation(up: str) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- sample
-@dataclass(frozen=True, eq=False)
-class _Sample:
-    """The sample (:func:`_points`) with its PCA neighbourhood statistics (file units)."""
-
-    xyz: np.ndarray  # (m, 3)
-    normals: np.ndarray  # (m, 3) unit
-    curvature: np.ndarray  # (m,) smallest eigenvalue / sum, 1 for degenerate neighbourhoods
-    spread: np.ndarray  # (m,) middle eigenvalue / largest: near 0 on a line (a scan line)
-    radius: np.ndarray  # (m,) distance to the k-th neighbour
-    noise: np.ndarray  # (m,) sqrt(smallest eigenvalue / k): plane residual
-    rays: Optional[np.ndarray]  # (r, 3) unit scanner → point directions of a random sample, or None
-    scanners: Optional[np.ndarray]  # (k, 3) finite scanner positions or None
-    n_total: int
-    source: str
-
-    def transformed(self, rot: np.ndarray) -> "_Sample":
-        """The sample rotated by ``rot`` (3, 3): p → rot @ p."""
-        r = np.asarray(rot, dtype=np.float64)
-        return _Sample(
-            xyz=self.xyz @ r.T, normals=self.normals @ r.T, curvature=self.curvature, spread=self.spread,
-            radius=self.radius, noise=self.noise,
-            rays=None if self.rays is None else self.rays @ r.T,
-            scanners=None if self.scanners is None else self.scanners @ r.T,
-            n_total=self.n_total, source=self.source)
-
-
-def _name(cloud_or_sample) -> str:
-    return cloud_or_sample.source or "point cloud"
-
-
-def _points(cloud: PointCloud, params: FrameParams, rng) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of a spatially even sample of the cloud's finite, distinct points, and of the
-    random pre-sample it was thinned from (for statistics of the rays, which thinning biases).
-
-    A random pre-sample (``presample`` × ``sample_points``) is thinned on a voxel grid to
-    about ``sample_points``: a random sample keeps the scan's density, and a mobile
-    scanner's horizon band (every position at one height sees the walls' band at that
-    height) would otherwise fill the neighbourhoods of wall points with one thin slab
-    across the wall. The voxel is sized from the surface count (like :func:`.clean`).
-    Exact duplicates go too (some scans hold every point twice).
-    """
-    rng = np.random.default_rng(rng)
-    n = len(cloud)
-    m = params.sample_points
-    k = min(n, params.presample * m)
-    idx = np.sort(rng.choice(n, k, replace=False)) if k < n else np.arange(n)
-    xyz = cloud.xyz[idx]
-    ok = np.isfinite(xyz).all(axis=1)
-    idx, xyz = idx[ok], xyz[ok]
-    if len(idx) > m:
-        lo, hi = np.percentile(xyz, [0.1, 99.9], axis=0)
-        ext = hi - lo
-        if ext.max() > 0:
-            area = 2.0 * float(ext[0] * ext[1] + ext[1] * ext[2] + ext[0] * ext[2])
-            v = max(math.sqrt(area / m), float(ext.max()) / 1e5)
-            for _ in range(6):
-                q = np.floor((np.clip(xyz, lo, hi) - lo) / v).astype(np.int64)
-                dims = q.max(axis=0) + 1
-                key = (q[:, 0] * dims[1] + q[:, 1]) * dims[2] + q[:, 2]
-                _, first = np.unique(key, return_index=True)
-                if len(first) <= m:
-                    break
-                v *= math.sqrt(len(first) / m) * 1.02
-            if len(first) > m:
-                first = rng.choice(first, m, replace=False)
-            if len(first) >= params.min_distinct:
-                return idx[np.sort(first)], idx
-    _, first = np.unique(xyz, axis=0, return_index=True)
-    return idx[np.sort(first)], idx
-
-
-def _rays(cloud: PointCloud, idx: np.ndarray) -> Optional[np.ndarray]:
-    """(r, 3) unit directions from each point's scanner to the points ``idx`` (those with a
-    known, distinct scanner), or None when the cloud does not say where its scanners were."""
-    sp = cloud.scanner_positions
-    if sp is None or not len(sp):
-        return None
-    if cloud.scan_index is not None:
-        si = cloud.scan_index[idx]
-        good = (si >= 0) & (si < len(sp))
-        d = cloud.xyz[idx[good]] - sp[si[good]]
-    elif len(sp) == 1:
-        d = cloud.xyz[idx] - sp[0]
-    else:
-        return None
-    r = np.linalg.norm(d, axis=1)
-    ok = np.isfinite(r) & (r > 0)
-    return d[ok] / r[ok, None] if ok.any() else None
-
-
-def _sample(cloud: PointCloud, params: FrameParams, rng, idx: Optional[tuple] = None) -> _Sample:
-    """The sample (:func:`_points`, or ``idx`` as it returns them) with kNN PCA statistics."""
-    from scipy.spatial import cKDTree
-
-    idx, raw = _points(cloud, params, rng) if idx is None else idx
-    xyz = cloud.xyz[idx]
-    m = len(xyz)
-    n = len(cloud)
-    rays = _rays(cloud, raw)
-    sp = cloud.scanner_positions
-    scanners = None
-    if sp is not None and len(sp):
-        fin = np.isfinite(sp).all(axis=1)
-        scanners = sp[fin] if fin.any() else None
-    k = min(params.neighbours, m - 1)
-    if k < 3:
-        nrm = np.zeros((m, 3))
-        nrm[:, 2] = 1.0
-        one, zero = np.ones(m), np.zeros(m)
-        return _Sample(xyz, nrm, one, zero, zero, zero, rays, scanners, n, cloud.source)
-    centre = xyz.mean(axis=0)  # centred: the covariances of georeferenced data keep their digits
-    pts = xyz - centre
-    d, nb = cKDTree(pts).query(pts, k=k + 1, workers=-1)
-    q = pts[nb]
-    q -= q.mean(axis=1, keepdims=True)
-    w, v = np.linalg.eigh(np.matmul(q.transpose(0, 2, 1), q))  # (m, 3, 3) scatter matrices
-    total = w.sum(axis=1)
-    curv = np.where(total > 0, np.maximum(w[:, 0], 0.0) / np.where(total > 0, total, 1.0), 1.0)
-    spread = np.where(w[:, 2] > 0, np.maximum(w[:, 1], 0.0) / np.where(w[:, 2] > 0, w[:, 2], 1.0), 0.0)
-    noise = np.sqrt(np.maximum(w[:, 0], 0.0) / (k + 1))
-    return _Sample(xyz, v[:, :, 0], curv, spread, d[:, -1], noise, rays, scanners, n, cloud.source)
-
-
-def _planar(s: _Sample, params: FrameParams) -> np.ndarray:
-    """Neighbourhoods on a plane: thin, and not a line (a scan line's PCA "normal" is any
-    direction across it)."""
-    return (s.curvature < params.planar_curvature) & (s.spread >= params.min_spread) & (s.radius > 0)
-
-
-def _area(s: _Sample) -> np.ndarray:
-    """Surface area each sample point stands for (∝ r², file units²)."""
-    return s.radius ** 2
-
-
-def _robust_extent(xyz: np.ndarray, lo=1.0, hi=99.0) -> np.ndarray:
-    a, b = np.percentile(xyz, [lo, hi], axis=0)
-    return b - a
-
-
-def _levelled(s: _Sample, params: FrameParams) -> _Sample:
+def _levelled(s: FrameSample, params: FrameParams) -> FrameSample:
     """The z-up sample turned so its horizontal surfaces are level: real scans are often
     tilted by a degree or so, which smears a 12 m floor over 20 cm of height. The vertical
     is the principal direction of the normals within ``axis_tolerance`` of z (those of the
     floors and ceilings)."""
-    par = _planar(s, params) & (np.abs(s.normals[:, 2]) >= math.cos(params.axis_tolerance))
+    par = planar_mask(s, params) & (np.abs(s.normals[:, 2]) >= math.cos(params.axis_tolerance))
     if par.sum() < 20:
         return s
     n = s.normals[par]
-    w = _area(s)[par]
+    w = area_weights(s)[par]
     _, vec = np.linalg.eigh((n * w[:, None]).T @ n)
     up = vec[:, -1] * np.sign(vec[2, -1])
     axis = np.cross(up, [0.0, 0.0, 1.0])
@@ -407,13 +188,13 @@ class _Layer:
 class _Layers:
     """Horizontal layers of a z-up sample (see the module docstring)."""
 
-    def __init__(self, s: _Sample, params: FrameParams):
-        planar = _planar(s, params)
+    def __init__(self, s: FrameSample, params: FrameParams):
+        planar = planar_mask(s, params)
         nz = np.abs(s.normals[:, 2])
         self.par = planar & (nz >= math.cos(params.axis_tolerance))
         self.steep = nz <= params.steep_normal
         self.z = s.xyz[:, 2]
-        self.w = _area(s)
+        self.w = area_weights(s)
         # the layers take every neighbourhood with a vertical normal that is not a scan line,
         # planar or not: in a big building the sample's neighbourhoods (k-th neighbour at
         # 0.3-0.6 m) reach across a 0.3 m slab, and two parallel planes are no plane
@@ -628,7 +409,7 @@ class _Layers:
 
 
 # ----------------------------------------------------------------------------- up axis
-def _cone(s: _Sample, axis: int, params: FrameParams):
+def _cone(s: FrameSample, axis: int, params: FrameParams):
     """(asymmetry (n₊ − n₋)/(n₊ + n₋), n₊ + n₋) of the rays (a plain random sample: the
     scanner's angular sampling, which a spatially even sample would bias by the range)
     within ``cone_angle`` of +axis / −axis, or None without scanners."""
@@ -640,11 +421,11 @@ def _cone(s: _Sample, axis: int, params: FrameParams):
     return (up - down) / max(up + down, 1), up + down
 
 
-def _axis_scores(s: _Sample, params: FrameParams) -> dict:
-    planar = _planar(s, params)
-    w = _area(s)
+def _axis_scores(s: FrameSample, params: FrameParams) -> dict:
+    planar = planar_mask(s, params)
+    w = area_weights(s)
     wp = float(w[planar].sum())
-    ext = _robust_extent(s.xyz)
+    ext = robust_extent(s.xyz)
     big = float(ext.max()) if ext.max() > 0 else 1.0
     out = {}
     for a, name in enumerate("xyz"):
@@ -656,12 +437,12 @@ def _axis_scores(s: _Sample, params: FrameParams) -> dict:
     return out
 
 
-def _clutter_sign(s: _Sample, up: str, params: FrameParams):
+def _clutter_sign(s: FrameSample, up: str, params: FrameParams):
     """(asymmetry, share, points) of the furniture-top cue when ``up`` is up (module doc)."""
     return _Layers(_levelled(s.transformed(up_rotation(up)), params), params).clutter()
 
 
-def _decide_up(s: _Sample, params: FrameParams) -> UpGuess:
+def _decide_up(s: FrameSample, params: FrameParams) -> UpGuess:
     scores = _axis_scores(s, params)
     geo = {a: scores[a]["score"] for a in "xyz"}
     best = max(geo, key=geo.get)
@@ -735,9 +516,9 @@ def detect_up(cloud: PointCloud, params: FrameParams = FrameParams(), *, rng=0) 
         ``confidence`` below ``params.min_up_confidence`` means the cues disagree or are
         missing: the scan cannot be oriented automatically.
     """
-    s = _sample(cloud, params, rng)
+    s = frame_sample(cloud, params, rng)
     g = _decide_up(s, params)
-    log.info("%s: up %s (confidence %.2f): %s", _name(cloud), g.up, g.confidence, g.evidence)
+    log.info("%s: up %s (confidence %.2f): %s", source_name(cloud), g.up, g.confidence, g.evidence)
     return g
 
 
@@ -752,7 +533,7 @@ def _weighted_median(v: np.ndarray, w: np.ndarray) -> float:
     return float(v[o][np.searchsorted(c, 0.5 * c[-1])])
 
 
-def _scanner_height(s: _Sample, layers: _Layers) -> Optional[float]:
+def _scanner_height(s: FrameSample, layers: _Layers) -> Optional[float]:
     """Median height of the scanners above the nearest floor layer below them (file units)."""
     if s.scanners is None or not len(s.scanners):
         return None
@@ -767,11 +548,11 @@ def _scanner_height(s: _Sample, layers: _Layers) -> Optional[float]:
     return float(np.median(hs)) if hs else None
 
 
-def _decide_units(s: _Sample, params: FrameParams) -> UnitGuess:
+def _decide_units(s: FrameSample, params: FrameParams) -> UnitGuess:
     s = _levelled(s, params)
     layers = _Layers(s, params)
     hs, ws = layers.heights()
-    ext_h = float(_robust_extent(s.xyz)[:2].max())
+    ext_h = float(robust_extent(s.xyz)[:2].max())
     h_main = _weighted_median(hs, ws) if len(hs) else None
     h_scan = _scanner_height(s, layers)
     st, ex, sc = params.storey_height, params.building_extent, params.scanner_height
@@ -858,111 +639,9 @@ def detect_units(cloud: PointCloud, params: FrameParams = FrameParams(), *, rng=
         "m" with a low confidence when no unit makes the storey height and the extent
         plausible.
     """
-    g = _decide_units(_sample(cloud, params, rng), params)
-    log.info("%s: units %s (confidence %.2f): %s", _name(cloud), g.unit, g.confidence, g.evidence)
+    g = _decide_units(frame_sample(cloud, params, rng), params)
+    log.info("%s: units %s (confidence %.2f): %s", source_name(cloud), g.unit, g.confidence, g.evidence)
     return g
-
-
-# ----------------------------------------------------------------------------- degenerate
-def _pca_extents(xyz: np.ndarray) -> np.ndarray:
-    """Robust (0.5–99.5 percentile) extents along the principal axes, largest first."""
-    c = xyz - xyz.mean(axis=0)
-    _, vec = np.linalg.eigh(c.T @ c)
-    p = c @ vec[:, ::-1]
-    lo, hi = np.percentile(p, [0.5, 99.5], axis=0)
-    return hi - lo
-
-
-def _check_shape(cloud: PointCloud, xyz: np.ndarray, params: FrameParams, scale: Optional[float],
-                 e: Optional[np.ndarray] = None) -> np.ndarray:
-    """Distinct points, collinear, coplanar from the deduplicated sample ``xyz``; returns the
-    PCA extents (file units)."""
-    where = cloud.source or None
-    n = len(cloud)
-    if n < params.min_distinct:
-        raise ReconstructionError(f"only {n} points: no building can be reconstructed", where)
-    if len(xyz) == 1:
-        p = ", ".join(f"{v:.6g}" for v in xyz[0])
-        k = params.presample * params.sample_points
-        what = f"all {n:,} points" if n <= k else f"all of {k:,} points sampled from the {n:,}"
-        raise ReconstructionError(f"{what} are identical ({p}): nothing to reconstruct", where)
-    if len(xyz) < params.min_distinct:
-        among = f"{n:,}" if n <= params.presample * params.sample_points else \
-            f"a random {params.presample * params.sample_points:,} of the {n:,}"
-        raise ReconstructionError(f"only {len(xyz)} distinct points among {among}: nothing to reconstruct",
-                                  where)
-    if e is None:
-        e = _pca_extents(xyz)
-    unit = "m" if scale is not None else "file units"
-    f = 1.0 if scale is None else scale
-    if e[0] <= 0:
-        raise ReconstructionError(f"almost all of the {n:,} points are at one spot: nothing to reconstruct",
-                                  where)
-    if e[1] <= params.flat_ratio * e[0] or (scale is not None and e[1] * f < params.min_thickness):
-        raise ReconstructionError(
-            f"the points lie on a line ({e[0] * f:.4g} {unit} long, {e[1] * f:.3g} {unit} wide): no building "
-            f"can be reconstructed", where)
-    if e[2] <= params.flat_ratio * e[0] or (scale is not None and e[2] * f < params.min_thickness):
-        raise ReconstructionError(
-            f"the cloud is flat ({e[0] * f:.4g} × {e[1] * f:.4g} {unit}, {e[2] * f:.3g} {unit} thick): "
-            f"a building needs walls, a floor and a ceiling", where)
-    return e
-
-
-def _check_structure(cloud: PointCloud, s: _Sample, e: np.ndarray, params: FrameParams) -> None:
-    """One plane within the noise; no planar neighbourhoods (uniform noise)."""
-    where = cloud.source or None
-    planar = _planar(s, params)
-    share = float(planar.mean())
-    noise = float(np.median(s.noise[planar])) if planar.any() else float(np.median(s.noise))
-    if e[1] <= params.flat_noise * noise:
-        raise ReconstructionError(
-            f"the points lie on a line: {e[1]:.3g} file units wide, within {params.flat_noise:g} times "
-            f"their noise ({noise:.3g}) — no building can be reconstructed", where)
-    if e[2] <= params.flat_noise * noise:
-        raise ReconstructionError(
-            f"the cloud is flat: {e[2]:.3g} file units thick, within {params.flat_noise:g} times its "
-            f"noise ({noise:.3g}) of one plane — a building needs walls, a floor and a ceiling", where)
-    if share < params.min_planar_share:
-        raise ReconstructionError(
-            f"no structure: only {share:.0%} of the point neighbourhoods are planar (a scan of walls, "
-            f"floors and ceilings has over {params.min_planar_share:.0%}) — noise or a wrong file?", where)
-
-
-def _checked_sample(cloud: PointCloud, params: FrameParams, scale: Optional[float], rng):
-    """The sample after the shape checks (before its k-d tree) and the structure checks."""
-    if len(cloud) < params.min_distinct:
-        _check_shape(cloud, cloud.xyz, params, scale)
-    idx, raw = _points(cloud, params, rng)
-    if len(idx) == 0:
-        raise ReconstructionError("no point has finite coordinates", cloud.source or None)
-    e = _check_shape(cloud, cloud.xyz[idx], params, scale)
-    s = _sample(cloud, params, rng, (idx, raw))
-    _check_structure(cloud, s, e, params)
-    return s, e
-
-
-def check_degenerate(cloud: PointCloud, params: FrameParams = FrameParams(), *, scale: Optional[float] = None,
-                     rng=0) -> None:
-    """Raise when the cloud cannot hold a building (see the module docstring).
-
-    Parameters
-    ----------
-    cloud : PointCloud
-    params : FrameParams
-    scale : float, optional
-        Metres per file unit when known: also refuses clouds thinner than
-        ``params.min_thickness`` metres along the thinnest PCA axis (flat) or the second
-        (a line). Without it only the relative tests run.
-    rng : seed of the sample.
-
-    Raises
-    ------
-    ReconstructionError
-        Naming ``cloud.source``: too few distinct points, identical, collinear, coplanar,
-        or no structure. Costs well under a second for 1M points (a sample).
-    """
-    _checked_sample(cloud, params, scale, rng)
 
 
 # ----------------------------------------------------------------------------- all
@@ -1007,10 +686,10 @@ def normalize_frame(cloud: PointCloud, units: str = "auto", up: str = "auto",
         raise InputError(f"units must be auto or one of {', '.join(UNITS)}, not {units!r}")
     if up != "auto" and up not in UP_AXES:
         raise InputError(f"up must be auto or one of {', '.join(UP_AXES)}, not {up!r}")
-    name = _name(cloud)
+    name = source_name(cloud)
     notes: list = []  # warnings a user should see
     given_scale = None if units == "auto" else UNITS[units]
-    s, e = _checked_sample(cloud, params, given_scale, rng)
+    s, e = checked_sample(cloud, params, given_scale, rng)
     if up == "auto":
         ug = _decide_up(s, params)
         if ug.confidence < params.min_up_confidence:
@@ -1025,7 +704,7 @@ def normalize_frame(cloud: PointCloud, units: str = "auto", up: str = "auto",
         s_up = s.transformed(rot)
         g = _decide_units(s_up, params)
         if g.unit == "m" and g.confidence < params.min_units_confidence:
-            ext_h = float(_robust_extent(s_up.xyz)[:2].max())
+            ext_h = float(robust_extent(s_up.xyz)[:2].max())
             if ext_h > params.building_extent[1]:
                 raise ReconstructionError(
                     f"the units cannot be told: {g.evidence}; the cloud is {ext_h:,.0f} units across, too "
@@ -1036,7 +715,7 @@ def normalize_frame(cloud: PointCloud, units: str = "auto", up: str = "auto",
             raise ReconstructionError(f"the units cannot be told: {g.evidence}. Pass the units (--units)",
                                       cloud.source or None)
         unit, scale, u_ev, u_conf = g.unit, g.scale, g.evidence, g.confidence
-        _check_shape(cloud, s.xyz, params, scale, e)  # now in metres
+        check_shape(cloud, s.xyz, params, scale, e)  # now in metres
     else:
         unit, scale, u_ev, u_conf = units, UNITS[units], "given", 1.0
     log.info("%s: units %s (confidence %.2f): %s", name, unit, u_conf, u_ev)
@@ -1053,8 +732,6 @@ def normalize_frame(cloud: PointCloud, units: str = "auto", up: str = "auto",
     if notes:
         kept = out.warnings
         if unit != "m":  # the reader's "looks like millimetres" note is answered by the rescale
-            from ..io import units_warning
-
             kept = tuple(w for w in kept if w != units_warning(out))
         out = out.with_(warnings=tuple(kept) + tuple(notes))
     return out, record

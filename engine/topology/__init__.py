@@ -11,8 +11,9 @@
   operators; each returns a **new** model with everything downstream re-derived (the
   input is never changed, so undo is keeping the old model).
 """
+from ..grammar.rules import derive_topology
 from .edit import insert_door, reclassify
-from .graph import PathResult, containment_graph, derive_topology, describe_path, shortest_path, space_graph
+from .graph import PathResult, containment_graph, describe_path, shortest_path, space_graph
 
 __all__ = ["derive_topology", "space_graph", "containment_graph", "shortest_path", "PathResult",
            "describe_path", "reclassify", "insert_door"]

@@ -9,13 +9,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
+import networkx as nx
 import numpy as np
 
 from ..model import BuildingModel, ShapeType
-from ..grammar.rules import derive_topology
 
-__all__ = ["space_graph", "containment_graph", "shortest_path", "PathResult", "describe_path",
-           "derive_topology"]
+__all__ = ["space_graph", "containment_graph", "shortest_path", "PathResult", "describe_path"]
 
 _LEVELS = ("space", "subspace")
 _SPACES = (ShapeType.INTERIOR, ShapeType.EXTERIOR)
@@ -46,8 +45,6 @@ def space_graph(model: BuildingModel, kind: str = "connectivity", level: str = "
     the same nodes at both levels. Exterior spaces are left out unless
     ``include_exterior``.
     """
-    import networkx as nx
-
     if kind not in ("adjacency", "connectivity"):
         raise ValueError(f"kind must be 'adjacency' or 'connectivity', not {kind!r}")
     nodes = _nodes(model, level, include_exterior)
@@ -80,8 +77,6 @@ def space_graph(model: BuildingModel, kind: str = "connectivity", level: str = "
 def containment_graph(model: BuildingModel):
     """A networkx DiGraph of containment: an edge parent → child for every merged shape
     and its parts and every wall and its doors."""
-    import networkx as nx
-
     g = nx.DiGraph()
     for s in model.shapes:
         g.add_node(s.id, name=s.name, type=s.type.value, active=s.active)
@@ -139,8 +134,6 @@ def shortest_path(model: BuildingModel, a: str, b: str, level: str = "space",
 
     Returns the :class:`PathResult`, or None when ``b`` cannot be reached from ``a``.
     """
-    import networkx as nx
-
     g = space_graph(model, "connectivity", level, include_exterior)
     src, dst = _resolve(model, a, level, g), _resolve(model, b, level, g)
     if not src or not dst:

@@ -1,0 +1,174 @@
+"""Geometric kernels of engine.geometry with known answers."""
+import numpy as np
+import pytest
+
+from engine.geometry.alpha import alpha_area, alpha_geometry, alpha_triangles, thin_grid
+from engine.geometry.boxes import min_area_box
+from engine.geometry.normals import knn_normals, knn_pca
+from engine.geometry.planes import plane_frame
+from engine.geometry.polygon import (area_3d, newell_normal, plan_area_perimeter, polygon_area,
+                                     polyhedron_volume, prism_footprint, signed_area, triangulate_faces,
+                                     triangulate_polygon)
+from engine.geometry.transforms import (apply_rotation, apply_transform, frame_transform, from_input_frame,
+                                        is_rigid, to_input_frame)
+
+
+def _grid(n=51, size=1.0):
+    g = np.linspace(0.0, size, n)
+    return np.stack(np.meshgrid(g, g), -1).reshape(-1, 2)
+
+
+def _rigid(angle, t):
+    c, s = np.cos(angle), np.sin(angle)
+    m = np.eye(4)
+    m[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    m[:3, 3] = t
+    return m
+
+
+# ----------------------------------------------------------------------------- alpha shapes
+def test_alpha_area_of_a_densely_sampled_square():
+    xy = _grid(51)  # 2 cm spacing over 1 m²
+    assert alpha_area(xy, 0.05) == pytest.approx(1.0, abs=1e-9)
+    assert alpha_geometry(xy, 0.05).area == pytest.approx(1.0, abs=1e-9)
+    assert alpha_area(xy, 0.01) == 0.0  # every triangle is larger than r_α
+    assert alpha_area(xy[:2], 0.05) == 0.0
+    # clipped to the left half
+    assert alpha_area(xy, 0.05, clip=((0.0, 0.0), (0.5, 1.0))) == pytest.approx(0.5, abs=1e-9)
+
+
+def test_alpha_shape_keeps_a_gap_wider_than_r_alpha():
+    xy = _grid(51)
+    two = np.vstack([xy, xy + [1.5, 0.0]])  # two squares 0.5 m apart
+    assert alpha_area(two, 0.05) == pytest.approx(2.0, abs=1e-9)
+    assert len(alpha_triangles(two, 0.05)) == 2 * 2 * 50 * 50
+
+
+def test_alpha_of_collinear_points_is_empty():
+    line = np.column_stack([np.linspace(0, 1, 20), np.zeros(20)])
+    assert alpha_area(line, 1.0) == 0.0
+    assert alpha_geometry(line, 1.0).is_empty
+
+
+def test_thin_grid_modes():
+    pts = np.array([[0.01, 0.01], [0.02, 0.03], [0.3, 0.3], [0.11, 0.01], [0.05, 0.05]])
+    first = thin_grid(pts, 0.1)
+    assert np.array_equal(first, pts[[0, 2, 3]])  # first of each cell, input order
+    last = thin_grid(pts, 0.1, anchor="min", keep="last")
+    # grid from (0.01, 0.01): cells (0,0) ← points 0, 1, 4 (last: 4), (1,0) ← 3, (2,2) ← 2
+    assert np.array_equal(last, pts[[4, 3, 2]])
+    assert np.array_equal(thin_grid(pts, 0.0), pts)
+    assert thin_grid(np.zeros((0, 3)), 0.1).shape == (0, 3)
+    with pytest.raises(ValueError):
+        thin_grid(pts, 0.1, keep="middle")
+
+
+# ----------------------------------------------------------------------------- normals
+def test_pca_normal_of_a_noisy_plane():
+    rng = np.random.default_rng(3)
+    n = np.array([1.0, 2.0, 2.0]) / 3.0
+    u, v = plane_frame(n)
+    ab = rng.uniform(-2, 2, size=(3000, 2))
+    pts = ab[:, :1] * u + ab[:, 1:] * v + rng.normal(0, 0.002, size=(3000, 1)) * n + [5.0, -3.0, 1.0]
+    nrm = knn_normals(pts, 16)
+    assert nrm.shape == (3000, 3)
+    assert np.allclose(np.linalg.norm(nrm, axis=1), 1.0)
+    assert np.median(np.abs(nrm @ n)) > 0.999
+    q = np.array([0, 10, 20])
+    d, w, vec = knn_pca(pts, 16, q)
+    assert d.shape == (3, 16) and np.all(d[:, 0] == 0.0)  # the point itself first
+    assert np.all(w[:, 0] < 0.01 * w[:, 1]) and np.all(np.diff(w, axis=1) >= 0)
+    assert np.allclose(knn_normals(pts, 16, q), vec[:, :, 0])
+
+
+# ----------------------------------------------------------------------------- planes
+@pytest.mark.parametrize("normal", [(0, 0, 1), (0, 0, -1), (1, 0, 0), (0.6, 0.8, 0), (0.3, 0.1, 0.95),
+                                    (1, 1, 1)])
+def test_plane_frame_is_orthonormal_and_right_handed(normal):
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    u, v = plane_frame(n)
+    assert np.allclose([u @ u, v @ v, u @ v, u @ n, v @ n], [1, 1, 0, 0, 0])
+    assert np.allclose(np.cross(u, v), n)
+    if abs(n[2]) < 0.9:
+        assert abs(u[2]) < 1e-12 and v[2] > 0  # u horizontal, v up
+    u1, _ = plane_frame(n, flat_cos=1.0)
+    if abs(n[2]) < 1.0:
+        assert abs(u1[2]) < 1e-12
+
+
+# ----------------------------------------------------------------------------- polygons
+def test_shoelace_of_known_polygons():
+    sq = np.array([[0, 0], [2, 0], [2, 2], [0, 2]], float)
+    assert signed_area(sq) == 4.0 and signed_area(sq[::-1]) == -4.0 and polygon_area(sq[::-1]) == 4.0
+    ell = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], float)
+    assert polygon_area(ell) == 3.0
+    tri = np.array([[0, 0], [3, 0], [0, 4]], float)
+    assert polygon_area(tri) == 6.0
+    tilted = np.array([[0, 0, 0], [1, 0, 1], [1, 1, 1], [0, 1, 0]], float)
+    assert area_3d(tilted) == pytest.approx(np.sqrt(2))
+    assert np.allclose(newell_normal(tilted), [-1 / np.sqrt(2), 0, 1 / np.sqrt(2)])
+    assert np.array_equal(newell_normal(np.zeros((3, 3))), np.zeros(3))
+
+
+def _l_prism():
+    fp = [(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]
+    k = len(fp)
+    v = np.array([(x, y, 0.0) for x, y in fp] + [(x, y, 3.0) for x, y in fp])
+    faces = [tuple(range(k - 1, -1, -1)), tuple(range(k, 2 * k))] + \
+        [(i, (i + 1) % k, k + (i + 1) % k, k + i) for i in range(k)]
+    return v, faces
+
+
+def test_triangulation_volume_footprint_and_plan_of_an_l_prism():
+    v, faces = _l_prism()
+    tris = triangulate_faces(v, faces)
+    assert tris.shape == (2 * 4 + 6 * 2, 3)
+    assert sum(area_3d(v[t]) for t in tris) == pytest.approx(2 * 3 + 8 * 3)
+    # the concave bottom face is ear-clipped: its triangles cover exactly the L
+    bottom = triangulate_polygon(v, faces[0])
+    assert sum(area_3d(v[list(t)]) for t in bottom) == pytest.approx(3.0)
+    assert polyhedron_volume(v, faces) == pytest.approx(9.0)
+    fp = prism_footprint(v, faces)
+    assert fp is not None and signed_area(fp) == pytest.approx(3.0)
+    assert plan_area_perimeter(v, faces) == pytest.approx((3.0, 8.0))
+    # a sloped top: no prism, the plan comes from the projected triangles
+    v2 = v.copy()
+    v2[6:, 2] += v2[6:, 0]
+    assert prism_footprint(v2, faces) is None
+    assert plan_area_perimeter(v2, faces) == pytest.approx((3.0, 8.0))
+
+
+# ----------------------------------------------------------------------------- boxes
+def test_min_area_box_of_a_rotated_rectangle():
+    a = np.radians(30)
+    r = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    xy = np.array([[0, 0], [4, 0], [4, 1], [0, 1]], float) @ r.T + [10, 5]
+    v = np.column_stack([np.vstack([xy, xy]), np.repeat([0.5, 2.5], 4)])
+    origin, axes, size = min_area_box(v)
+    assert np.allclose(size, [4, 1, 2])
+    assert np.allclose(abs(axes[0, :2] @ r[:, 0]), 1.0) and np.allclose(axes[2], [0, 0, 1])
+    corners = origin + np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)]) * size @ axes
+    assert np.allclose(np.sort(corners[:, 2]), [0.5] * 4 + [2.5] * 4)
+    o0, a0, s0 = min_area_box(np.zeros((0, 3)))
+    assert not s0.any() and np.array_equal(a0, np.eye(3))
+
+
+# ----------------------------------------------------------------------------- transforms
+def test_transforms_round_trip():
+    rng = np.random.default_rng(1)
+    p = rng.normal(size=(50, 3)) * 10
+    t = _rigid(0.4, (1.0, -2.0, 0.5))
+    offset = np.array([500000.0, 5400000.0, 100.0])
+    q = to_input_frame(p, t, offset)
+    assert np.allclose(q - offset, apply_transform(t, p))
+    assert np.allclose(from_input_frame(q, t, offset), p, atol=1e-6)
+    assert np.allclose(from_input_frame(to_input_frame(p, t), t), p)
+    n = rng.normal(size=(5, 3))
+    assert np.allclose(apply_rotation(t, n), n @ t[:3, :3].T)
+    assert is_rigid(t, 1e-9) and not is_rigid(np.diag([2.0, 1, 1, 1]), 1e-9)
+    assert not is_rigid(np.diag([1.0, 1, -1, 1]), 1e-9)
+    # dataset a → dataset b: the same file point
+    ta, oa = _rigid(0.3, (1, 2, 3)), np.array([10.0, 0.0, 0.0])
+    tb, ob = _rigid(-1.1, (0, 1, 0)), np.array([0.0, 20.0, 1.0])
+    m = frame_transform(ta, oa, tb, ob)
+    assert np.allclose(to_input_frame(apply_transform(m, p), tb, ob), to_input_frame(p, ta, oa))
