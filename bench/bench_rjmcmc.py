@@ -74,7 +74,8 @@ def _scaling(quick: bool) -> list:
     import shapely
 
     from engine.grammar.coverage import cellset_from_polygons, measure_coverage
-    from engine.grammar.generic import GenericParams, arrange_cells
+    from engine.grammar.params import GenericParams
+    from engine.grammar.generic import arrange_cells
     from engine.grammar.rjmcmc import search_spaces
 
     gp = GenericParams()
@@ -88,8 +89,7 @@ def _scaling(quick: bool) -> list:
         cells = cellset_from_polygons(arrange_cells(lines, ext), (0.0, h))
         t_cells = time.perf_counter() - t
         t = time.perf_counter()
-        cov = measure_coverage(cells, xyz[lab == 0], xyz[lab == 1], shape_buffer=gp.shape_buffer,
-                               r_alpha=gp.r_alpha, thin=gp.coverage_grid, wall_band=gp.wall_band)
+        cov = measure_coverage(cells, xyz[lab == 0], xyz[lab == 1], gp.coverage)
         t_cov = time.perf_counter() - t
         t = time.perf_counter()
         res = search_spaces(cells, cov, rng=0)
@@ -128,8 +128,7 @@ def _speedup(cells, cov, wall, hor, gp, n_incremental=2000, n_naive=3) -> dict:
     inc = (time.perf_counter() - t) / len(moves)
     t = time.perf_counter()
     for _ in range(n_naive):
-        naive_log_posterior(res.spaces, cells, wall, hor, shape_buffer=gp.shape_buffer, r_alpha=gp.r_alpha,
-                            thin=gp.coverage_grid, min_wall_coverage=gp.min_wall_coverage, wall_band=gp.wall_band)
+        naive_log_posterior(res.spaces, cells, wall, hor, gp.search, gp.coverage)
     naive = (time.perf_counter() - t) / n_naive
     return {"cells": len(cells), "incremental_seconds_per_proposal": inc, "full_rescore_seconds": naive,
             "speedup": naive / inc if inc > 0 else float("inf"),
@@ -141,13 +140,10 @@ def run(out_dir: str, quick: bool) -> dict:
     """Run the three measurements; returns JSON-ready figures (see the module doc)."""
     import math as _m
 
-    import shapely
-
     from engine.evaluation import evaluate
-    from engine.grammar.coverage import cellset_from_polygons, measure_coverage
-    from engine.grammar.generic import GenericParams, _working_cloud, arrange_cells, reconstruct_generic, wall_lines
-    from engine.segmentation import classify_points, detect_storeys, estimate_normals
-    from engine.segmentation.planes import extract_planes
+    from engine.grammar.coverage import measure_coverage
+    from engine.grammar.generic import GenericParams, reconstruct_generic, storey_cells
+    from engine.pipeline import preprocess
     from engine.synthetic import preset
 
     n = 200_000 if quick else 1_000_000
@@ -173,20 +169,12 @@ def run(out_dir: str, quick: bool) -> dict:
     log.info("end to end: %s", end_to_end)
     # the same cells again for the speed-up measurement
     gp = GenericParams()
-    work = _working_cloud(cloud, gp)
-    if work.normals is None:
-        work = estimate_normals(work, gp.normals)
-    labels = classify_points(work, gp.classify)
-    st = detect_storeys(work, gp.storeys)
-    planes = extract_planes(work, gp.planes, labels=labels, storeys=st, rng=0)
-    xyz = work.xyz
-    lo, hi = xyz[:, :2].min(axis=0) - gp.extent_margin, xyz[:, :2].max(axis=0) + gp.extent_margin
-    polys = arrange_cells(wall_lines(planes, 0, gp), shapely.box(lo[0], lo[1], hi[0], hi[1]), gp.min_cell_area)
-    cells = cellset_from_polygons(polys, (st[0].floor_z, float(np.percentile(xyz[:, 2], 99.9))))
-    nz = np.abs(work.normals[:, 2].astype(float))
-    wall, hor = xyz[nz <= _m.sin(gp.coverage_angle)], xyz[nz >= _m.cos(gp.coverage_angle)]
-    cov = measure_coverage(cells, wall, hor, shape_buffer=gp.shape_buffer, r_alpha=gp.r_alpha,
-                           thin=gp.coverage_grid, min_wall_coverage=gp.min_wall_coverage, wall_band=gp.wall_band)
+    prep = preprocess(cloud, rng=0)
+    cells = storey_cells(prep, gp)[0].cells
+    xyz = prep.working.xyz
+    nz = np.abs(prep.working.normals[:, 2].astype(float))
+    wall, hor = xyz[nz <= _m.sin(gp.coverage.coverage_angle)], xyz[nz >= _m.cos(gp.coverage.coverage_angle)]
+    cov = measure_coverage(cells, wall, hor, gp.coverage)
     speed = _speedup(cells, cov, wall, hor, gp, n_naive=2 if quick else 3)
     log.info("speed-up: %s", speed)
     return {"end_to_end": end_to_end, "incremental_vs_full": speed, "scaling": _scaling(quick)}

@@ -1,7 +1,7 @@
-"""Time and peak memory of the whole preprocessing and space partitioning
-(:func:`engine.segmentation.preprocess`: cleaning, normals, Manhattan alignment, storeys,
-point clusters, planes, cells) on the ``office_mw`` synthetic scan at 1M and 5M points
-(targets: ≤ 15 s and ≤ 60 s on the 2-core machine).
+"""Time and peak memory of the shared preprocessing (:func:`engine.pipeline.preprocess`:
+working cloud, normals, point clusters, storeys, planes), the Manhattan alignment and the
+generic method's cells (:func:`engine.grammar.generic.storey_cells`) on the ``office_mw``
+synthetic scan at 1M and 5M points (targets: ≤ 15 s and ≤ 60 s on the 2-core machine).
 
 Each size runs in a fresh subprocess that loads the cloud from a temporary ``.npy`` file,
 so the peak resident set (``VmHWM``) is that of the preprocessing alone (plus the imports
@@ -47,17 +47,21 @@ def rss_mb():
 import numpy as np
 import open3d, scipy.spatial, shapely  # imports are not part of the timing
 from engine.pointcloud import PointCloud
-from engine.segmentation import preprocess
+from engine.grammar.generic import storey_cells
+from engine.pipeline import align, preprocess
 xyz = np.load(sys.argv[1])
 cloud = PointCloud(xyz=xyz)
 base = rss_mb()
 t, c = time.perf_counter(), time.process_time()
-res = preprocess(cloud, rng=0)
+res = align(preprocess(cloud, rng=0), rng=0)
+t1 = time.perf_counter()
+cells = storey_cells(res)
+steps = dict(res.timings, cells=time.perf_counter() - t1)
 dt, dc = time.perf_counter() - t, time.process_time() - c
 print(json.dumps({"points": len(cloud), "working_points": len(res.working), "seconds": dt,
-                  "cpu_seconds": dc, "steps": res.timings, "peak_rss_mb": hwm_mb(),
+                  "cpu_seconds": dc, "steps": steps, "peak_rss_mb": hwm_mb(),
                   "rss_after_load_mb": base, "storeys": len(res.storeys),
-                  "planes": len(res.planes), "cells": len(res.cells.cells),
+                  "planes": len(res.planes), "cells": sum(len(sc.cells) for sc in cells),
                   "load_average": list(os.getloadavg())}))
 """
 

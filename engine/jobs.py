@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional, Sequence
 
 from .errors import OutputError, error_kind, error_line, printable
+from .fileutil import atomic_write_text
 
 __all__ = ["check_output_dir", "output_stems", "Failure", "guarded", "terminate_as_interrupt",
            "write_batch_record", "seed_argument", "stop_requested", "polled", "EXIT_OK", "EXIT_FAILED",
@@ -226,7 +227,6 @@ def write_batch_record(out_dir: str | os.PathLike, done: Sequence[dict], failed:
     ``done`` holds one dict per finished input with at least ``"input"`` (its path) and its
     outputs; ``failed`` the :class:`Failure` of each failed input.
     """
-    from .fileutil import atomic_write_text
 
     path = os.path.join(os.fspath(out_dir), "batch.json")
     record = {"done": list(done), "failed": [f.to_dict() for f in failed],

@@ -1,14 +1,16 @@
 """Scan file → building model → IFC and a JSON report: the one entry point the CLI, the
 Blender operators and the batch script share.
 
-``reconstruct`` picks the method (``auto``: the Manhattan grammar when the wall normals
-are Manhattan enough, else cells + rjMCMC), ``model_report`` gives the JSON-ready facts
+``reconstruct`` preprocesses once (:mod:`engine.pipeline`), picks the method (``auto``: the
+Manhattan grammar when the wall planes are Manhattan enough, else cells + rjMCMC) and runs
+it; ``model_report`` gives the JSON-ready facts
 (spaces, walls, doors, topology, parameters, timings) and ``convert_file`` does the whole
 job for one scan with atomic outputs.
 """
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 import os
 import time
@@ -18,45 +20,38 @@ from typing import Optional
 import numpy as np
 
 from .errors import InputError, ReconstructionError, printable
+from .fileutil import atomic_write_text
+from .grammar.generic import generic_model
+from .grammar.manhattan import manhattan_model
+from .ifc import write_ifc as _write_ifc
+from .io import read_point_cloud
+from .jobs import check_output_dir
 from .model import BuildingModel
+from .params import Params
+from .pipeline import choose_method, preprocess
 from .pointcloud import PointCloud
 from .progress import Progress
+from .segmentation.frame import check_degenerate, normalize_frame
 
-__all__ = ["METHODS", "choose_method", "reconstruct", "model_report", "convert_file", "ConvertResult"]
+__all__ = ["METHODS", "reconstruct", "model_report", "convert_file", "ConvertResult"]
 
 log = logging.getLogger(__name__)
 
 METHODS = ("auto", "manhattan", "generic")
 
 
-def choose_method(cloud: PointCloud, *, rng=0) -> tuple[str, float]:
-    """Pick ``"manhattan"`` or ``"generic"`` for ``--method auto``.
-
-    The score is :func:`engine.grammar.generic.manhattan_score`: the share of the RANSAC
-    wall-plane area within 3° of two perpendicular horizontal directions (planes, not
-    per-point normals, which scatter by several degrees on a 2 cm mobile scan). Manhattan
-    when it reaches ``GenericParams.manhattan_threshold`` (0.85).
-
-    Returns
-    -------
-    (method, score) : (str, float in [0, 1])
-    """
-    from .grammar.generic import choose_method as _choose
-
-    return _choose(cloud, rng=rng)
-
-
 def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, progress=None,
                 should_stop=None, check: bool = True) -> BuildingModel:
-    """Reconstruct a building model from a scan.
+    """Reconstruct a building model from a scan: preprocess once, choose, run the method.
 
     Parameters
     ----------
     cloud : PointCloud — metres, z roughly up.
-    method : "auto", "manhattan" (shape grammar, SPEC.md §2) or "generic" (cells +
-        rjMCMC, SPEC.md §3).
-    params : ManhattanParams / GenericParams for the chosen method, or None (defaults
-        chosen from the data).
+    method : "auto", "manhattan" (shape grammar, docs/method.md §2) or "generic" (cells +
+        rjMCMC, §3). ``auto`` picks Manhattan when the wall planes found by preprocessing
+        are Manhattan enough (:func:`engine.pipeline.choose_method`).
+    params : Params, or one stage's parameters (ManhattanParams, GenericParams,
+        PreprocessParams), or None for the defaults.
     rng : seed or Generator; same seed, same model.
     progress, should_stop : see :class:`engine.progress.Progress`.
     check : bool
@@ -65,42 +60,41 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
 
     Returns
     -------
-    BuildingModel; ``provenance.parameters["method_choice"]`` records how auto chose.
+    BuildingModel; with ``auto``, ``provenance.parameters`` records ``method_choice`` and
+    ``manhattan_score``.
 
     Raises
     ------
     ReconstructionError
-        A degenerate cloud (:func:`engine.segmentation.frame.check_degenerate`), data that
-        give no storey or wall, or a result without any space.
+        A degenerate cloud, data that give no storey or wall, or a result without any space.
     """
-    from .segmentation.frame import check_degenerate
-
     if method not in METHODS:
         raise InputError(f"method must be one of {', '.join(METHODS)}, not {method!r}")
+    params = Params.coerce(params)
     if check:
         check_degenerate(cloud)  # flat, a line, identical points, noise: fail in a second
     p = Progress.wrap(progress, should_stop)
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    p(0.0, "preprocessing")
+    prep = preprocess(cloud, params.preprocess, rng=gen, planes=method != "manhattan", progress=p.sub(0.0, 0.4))
     choice = {}
     if method == "auto":
-        p(0.0, "choosing method")
-        method, score = choose_method(cloud, rng=rng)
-        p(0.1, f"method: {method}")
+        method, score = choose_method(prep, params.choice)
+        p(0.4, f"method: {method}")
         choice = {"method_choice": "auto", "manhattan_score": round(score, 4)}
     if method == "manhattan":
-        from .grammar import reconstruct_manhattan as run
+        model = manhattan_model(prep, params.manhattan, rng=gen, progress=p.sub(0.4, 1.0))
     else:
-        from .grammar.generic import reconstruct_generic as run
-    model = run(cloud, params, rng=rng, progress=p.sub(0.1 if choice else 0.0, 1.0))
+        model = generic_model(prep, params.generic, rng=gen, progress=p.sub(0.4, 1.0))
     if not model.spaces:
         raise ReconstructionError(
             f"no space found ({model.provenance.method} method): the scan shows no closed room "
             "(floor, ceiling and walls around it)", cloud.source or None)
-    if choice:
-        prov = model.provenance
-        model = model.with_(provenance=prov.__class__(
-            prov.method, {**prov.parameters, **choice}, prov.seed, prov.timings, prov.trace,
-            prov.source, prov.software))
-    return model
+    prov = model.provenance
+    seed = int(rng) if isinstance(rng, (int, np.integer)) else prov.seed
+    return model.with_(provenance=prov.__class__(
+        prov.method, {**prov.parameters, **choice}, seed, prov.timings, prov.trace,
+        prov.source, prov.software))
 
 
 def _space_facts(model: BuildingModel, s) -> dict:
@@ -174,13 +168,6 @@ def convert_file(path: str | os.PathLike, out_dir: str | os.PathLike, *, method:
     InputError, ReconstructionError, OutputError
         See :mod:`engine.errors`; a model without any space is a ReconstructionError.
     """
-    import json
-
-    from .fileutil import atomic_write_text
-    from .io import read_point_cloud
-    from .jobs import check_output_dir
-    from .segmentation.frame import normalize_frame
-
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
         raise InputError(f"the seed must be a whole number >= 0, not {seed!r}")
     if method not in METHODS:
@@ -205,8 +192,6 @@ def convert_file(path: str | os.PathLike, out_dir: str | os.PathLike, *, method:
     json_path = os.path.join(out_dir, name + ".json")
     try:  # the pair is written whole or not at all (an interrupt between the two included)
         if write_ifc:
-            from .ifc import write_ifc as _write_ifc
-
             p(0.92, "writing IFC")
             ifc_path = os.path.join(out_dir, name + ".ifc")
             _write_ifc(model, ifc_path)

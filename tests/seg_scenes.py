@@ -240,15 +240,15 @@ def match_planes(planes, walls, max_angle_deg, max_dist):
     return flags, unmatched
 
 
-def room_coverage(cc, truth, transform, storey=0):
-    """For every true room: (name, covered share of its floor area by the union of the cells
-    lying mostly inside it, Hausdorff distance between that union and the room, metres)."""
+def room_coverage(cells, truth, transform, storey=0):
+    """For every true room of ``storey``: (name, covered share of its floor area by the union of
+    the cells (shapely polygons) lying mostly inside it, area of that union outside the room
+    as a share of the room's area)."""
     import shapely
     from shapely.geometry import Polygon
 
     inv = np.linalg.inv(transform)
     out = []
-    cells = [Polygon(c.polygon) for c in cc.cells_of_storey(cc.storeys[storey].index) if c.layer == 0]
     for s in truth.spaces:
         if s.storey != storey:
             continue
@@ -257,8 +257,8 @@ def room_coverage(cc, truth, transform, storey=0):
         room = Polygon(p3[:, :2])
         parts = [c for c in cells if c.intersection(room).area > 0.5 * c.area]
         if not parts:
-            out.append((s.name, 0.0, np.inf))
+            out.append((s.name, 0.0, 0.0))
             continue
         u = shapely.union_all(parts)
-        out.append((s.name, u.intersection(room).area / room.area, u.hausdorff_distance(room)))
+        out.append((s.name, u.intersection(room).area / room.area, u.difference(room).area / room.area))
     return out

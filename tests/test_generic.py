@@ -11,7 +11,10 @@ import pytest
 import shapely
 
 from engine.errors import EmptyCloudError
-from engine.grammar.generic import GenericParams, arrange_cells, manhattan_score, reconstruct_generic
+from engine.grammar.generic import arrange_cells, reconstruct_generic
+from engine.grammar.params import CellParams
+from engine.pipeline import ChoiceParams, _cluster_params, manhattan_score, preprocess
+from engine.segmentation.params import PreprocessParams
 from engine.model import BuildingModel, ShapeType
 from engine.pointcloud import PointCloud
 from test_generic_scenes import hexagon_rooms, match_rooms, sample_rooms, skew_rooms, truth_model
@@ -86,13 +89,17 @@ def test_reclassify_works_on_generic_models(skew_run):
     assert len(back.spaces) == len(model.spaces)
 
 
+def _score(cloud):
+    return manhattan_score(preprocess(cloud, rng=0).planes)
+
+
 def test_manhattan_score_separates_layouts():
     boxes = [shapely.box(0, 0, 4, 5).buffer(-0.1, join_style="mitre"),
              shapely.box(4, 0, 9, 5).buffer(-0.1, join_style="mitre")]
-    thr = GenericParams().manhattan_threshold
-    man = manhattan_score(sample_rooms(boxes, density=120.0, seed=1))
-    hexa = manhattan_score(sample_rooms(hexagon_rooms(), density=60.0, seed=1))
-    skew = manhattan_score(sample_rooms(skew_rooms(angle=0.0), density=60.0, seed=1))
+    thr = ChoiceParams().manhattan_threshold
+    man = manhattan_score(preprocess(sample_rooms(boxes, density=120.0, seed=1), rng=0).planes)
+    hexa = _score(sample_rooms(hexagon_rooms(), density=60.0, seed=1))
+    skew = _score(sample_rooms(skew_rooms(angle=0.0), density=60.0, seed=1))
     assert man > 0.98 > thr
     assert hexa < 0.6
     # one slanted wall (12°) among axis-aligned ones: not Manhattan, and not by a hair: the
@@ -111,8 +118,8 @@ def test_arrange_cells_partitions_the_extent():
     # two lines a centimetre apart cut a 1 cm strip (0.06 m², above the area bound): it
     # joins a neighbour when narrower than min_cell_width
     close = np.array([[1.0, 0.0, 4.0], [1.0, 0.0, 4.01]])
-    assert len(arrange_cells(close, ext)) == 3
-    merged = arrange_cells(close, ext, min_cell_width=GenericParams().min_cell_width)
+    assert len(arrange_cells(close, ext, CellParams(min_cell_width=0.0))) == 3
+    merged = arrange_cells(close, ext, CellParams())
     assert len(merged) == 2 and sum(c.area for c in merged) == pytest.approx(60.0)
 
 
@@ -157,8 +164,6 @@ def test_room_count_on_other_scene_seeds(name, seed, noise):
     room and the line of the common room's wall once counted as a sixth room. office_mw
     mobile seed 0: with θ = 10° on σ = 2 cm normals two walls gave no plane and 7 of 8
     rooms came out (completeness 0.875); θ now follows the normals' noise."""
-    from engine.grammar.generic import _cluster_params, _working_cloud
-    from engine.segmentation import estimate_normals
     from engine.synthetic import preset
 
     sc = preset(name, seed=seed, noise=noise, target_points=300_000)
@@ -166,9 +171,8 @@ def test_room_count_on_other_scene_seeds(name, seed, noise):
     assert len(model.spaces) == len(sc.truth.spaces)
     comp, corr, _ = _scores(model, sc.truth)
     assert comp >= 0.95 and corr >= 0.95
-    p = GenericParams()
-    work = estimate_normals(_working_cloud(sc.cloud, p), p.normals)
-    theta = np.degrees(_cluster_params(work, p).angle_tolerance)
+    prep = preprocess(sc.cloud, rng=0, planes=False)
+    theta = np.degrees(_cluster_params(prep.working, PreprocessParams()).angle_tolerance)
     # TLS: the 10° floor; mobile measured 14.4-14.6° (office_mw, seeds 0-3)
     assert theta == pytest.approx(10.0) if noise == "tls" else 12.0 <= theta <= 20.0
 

@@ -2,10 +2,14 @@
 import numpy as np
 import pytest
 
-from engine.grammar.generic import GenericParams, manhattan_score
-from engine.reconstruct import choose_method, model_report
+from engine.pipeline import ChoiceParams, choose_method, manhattan_score, preprocess
+from engine.reconstruct import model_report
 
-AUTO_THRESHOLD = GenericParams().manhattan_threshold
+AUTO_THRESHOLD = ChoiceParams().manhattan_threshold
+
+
+def _choose(cloud):
+    return choose_method(preprocess(cloud, rng=0))
 
 
 @pytest.mark.parametrize("name, noise, expected", [
@@ -18,7 +22,7 @@ def test_auto_method_choice(name, noise, expected):
     from engine.synthetic import preset
 
     cloud = preset(name, seed=2, noise=noise, target_points=100_000).cloud
-    method, share = choose_method(cloud)
+    method, share = _choose(cloud)
     assert method == expected, share
     # and not by a hair: the share stays 0.05 from the threshold, so the choice does not
     # flip with last-bit differences of the ray casting or the RANSAC planes between CPUs
@@ -36,13 +40,13 @@ def test_manhattan_share_is_rotation_invariant():
     m[:2, :2] = [[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]
     # measured 1.000 for seeds 0-4 (rotated 27°): 0.05 above the threshold, as for the
     # auto choice above
-    assert manhattan_score(cloud.transformed(m)) >= AUTO_THRESHOLD + 0.05
+    assert manhattan_score(preprocess(cloud.transformed(m), rng=0).planes) >= AUTO_THRESHOLD + 0.05
 
 
 def test_real_room_scan_is_manhattan(data_dir):
     from engine.io import read_point_cloud
 
-    method, share = choose_method(read_point_cloud(f"{data_dir}/room_scan1.pcd"))
+    method, share = _choose(read_point_cloud(f"{data_dir}/room_scan1.pcd"))
     assert method == "manhattan" and share >= AUTO_THRESHOLD + 0.05  # measured 0.934
 
 

@@ -15,7 +15,6 @@ from engine.grammar.generic import arrange_cells
 from engine.grammar.rjmcmc import RjmcmcParams, SpaceSearch, mdl_cost, naive_log_posterior, search_spaces
 from test_generic_scenes import Z0, Z1, hexagon_rooms, match_rooms, room_lines, sample_rooms, skew_rooms
 
-COV = dict(shape_buffer=0.05, r_alpha=0.2, thin=0.04)
 
 
 def _complex(rooms, seed=0):
@@ -25,7 +24,7 @@ def _complex(rooms, seed=0):
     cells = cellset_from_polygons(arrange_cells(room_lines(rooms), ext), (Z0, Z1))
     lab = cloud.fields["label"]
     wall, hor = cloud.xyz[lab == 0], cloud.xyz[lab > 0]
-    return cells, measure_coverage(cells, wall, hor, **COV), wall, hor
+    return cells, measure_coverage(cells, wall, hor), wall, hor
 
 
 @pytest.fixture(scope="module")
@@ -118,7 +117,7 @@ def test_incremental_score_matches_full_rescore(skew):
     models = [truth, truth[:2], [truth[0] + truth[1] + [c for c in range(len(cells)) if not any(c in t for t in truth)][:0]]]
     for m in models[:2]:
         st.set_model(m)
-        full = naive_log_posterior(m, cells, wall, hor, **COV)
+        full = naive_log_posterior(m, cells, wall, hor)
         assert st.score == pytest.approx(full, abs=0.02)
     # the truth beats a model missing two rooms by a clear margin under both scores
     st.set_model(truth)

@@ -148,10 +148,10 @@ def test_single_plane_has_no_vertical_structure():
         align_manhattan(_working(PointCloud(xyz=xyz)))
 
 
-def test_few_hundred_points_is_a_clear_error():
+def test_too_few_points_is_a_clear_error():
     rng = np.random.default_rng(0)
-    with pytest.raises(EmptyCloudError, match="usable points"):
-        clean(PointCloud(xyz=rng.random((300, 3)), source="tiny.ply"))
+    with pytest.raises(EmptyCloudError, match="usable points"):  # CleanParams.min_points: 100
+        clean(PointCloud(xyz=rng.random((80, 3)), source="tiny.ply"))
 
 
 def test_no_ceiling_is_a_clear_error():
@@ -165,13 +165,15 @@ def test_no_ceiling_is_a_clear_error():
 def test_room_scan_wall_planes_are_axis_aligned():
     """The big wall planes of the real scan after alignment: residual ±0.36° (the two long
     walls of room_scan1 are themselves 0.72° from parallel)."""
-    from engine.segmentation import preprocess
+    from engine.pipeline import align, preprocess
 
     cloud = read_room_scan(os.path.join(DATA, "room_scan1.pcd"))
-    res = preprocess(cloud, rng=0)
+    res = align(preprocess(cloud, rng=0), rng=0)
+    rot = res.transform[:3, :3]  # aligned -> input
     big = [p for p in res.planes if p.kind == "wall" and p.area >= 4.0]
     assert len(big) >= 2
     for p in big:
-        dev = np.degrees(np.angle(np.exp(4j * np.arctan2(p.normal[1], p.normal[0]))) / 4)
+        n = rot.T @ np.asarray(p.normal, float)  # the plane's normal in the aligned frame
+        dev = np.degrees(np.angle(np.exp(4j * np.arctan2(n[1], n[0]))) / 4)
         assert abs(dev) < 0.5
     assert len(res.storeys) == 1 and abs(res.storeys[0].floor_z + 1.27) < 0.03

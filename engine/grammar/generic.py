@@ -1,28 +1,22 @@
-"""The generic (non-Manhattan) grammar: cells + rjMCMC (SPEC.md §3, thesis Ch. 4).
+"""The generic (non-Manhattan) method: cells + rjMCMC (docs/method.md §3, thesis Ch. 4).
 
-Pipeline of :func:`reconstruct_generic`:
+:func:`generic_model` runs on the shared preprocessing (:func:`engine.pipeline.preprocess`:
+working cloud, normals, clusters, storeys, wall planes; the cloud is levelled, not rotated:
+walls may run in any direction), then per storey:
 
-1. working cloud (voxel thinning), normals, point clusters (wall / floor-ceiling / other),
-   storeys — from :mod:`engine.segmentation`; the cloud is taken as levelled (z up) and is
-   *not* rotated: walls may run in any direction;
-2. wall planes (multi-scale RANSAC, :func:`engine.segmentation.planes.extract_planes`);
-3. space partitioning: the wall planes' lines cut the storey's extent into 2-D cells
-   (:func:`arrange_cells`; shapely ``polygonize`` of the noded lines), extruded between the
-   storey's floor and ceiling — the **place** rule (every cell becomes a non-terminal shape);
-   when the segmentation package provides ``decompose_cells`` its cells are used instead;
-4. coverage of every cell and face measured once (:mod:`.coverage`);
-5. the rjMCMC search for the interior spaces (:mod:`.rjmcmc`) — rules **merge**, **split**,
-   **classify**, **declassify** are its moves;
-6. walls and exterior (SPEC.md §3.4): an untyped cell next to a space whose vertices all lie
-   within the maximum wall thickness of the shared face's line is a **wall**; the other cells
-   are **exterior**;
-7. adjacency / connectivity with :func:`.rules.derive_topology` (spaces sharing a wall;
-   doors put in by hand later through the same editing API as the Manhattan grammar).
+1. **place**: the wall planes' lines cut the storey's extent into 2-D cells
+   (:func:`arrange_cells`), extruded between floor and ceiling (:func:`storey_cells`);
+2. the coverage of every cell and face, measured once (:mod:`.coverage`);
+3. the rjMCMC search for the interior spaces (:mod:`.rjmcmc`): the rules **merge**,
+   **split**, **classify**, **declassify** are its moves;
+4. walls and exterior (docs/method.md §3.4): an untyped cell next to a space whose vertices
+   all lie within the maximum wall thickness of the shared face's line is a **wall**; the
+   other cells are **exterior**;
+5. adjacency / connectivity (:func:`.rules.derive_topology`).
 
 Every space is a vertical prism over the union of its cells, from the median height of the
 floor points to the median height of the ceiling points over it. Cells stay in the model as
-inactive children of their space or wall (``attributes["cell"] = True``) for sub-space
-queries.
+inactive children of their space or wall (``attributes["cell"] = True``).
 """
 from __future__ import annotations
 
@@ -33,198 +27,28 @@ from dataclasses import asdict, dataclass, field
 from typing import Optional
 
 import numpy as np
+import shapely
+from shapely.ops import polygonize
 
-from ..errors import EmptyCloudError, ReconstructionError
+from ..errors import ReconstructionError
 from ..model import BuildingModel, Polyhedron, Provenance, Shape, ShapeType, Storey
+from ..pipeline import Prepared, preprocess
 from ..pointcloud import PointCloud
 from ..progress import Progress
+from ..segmentation.params import PreprocessParams
 from .coverage import CellSet, cellset_from_polygons, measure_coverage
-from .rjmcmc import RjmcmcParams, SearchResult, search_spaces
+from .params import CellParams, CoverageParams, GenericParams
+from .rjmcmc import SearchResult, search_spaces
+from .rules import derive_topology
 
-__all__ = ["GenericParams", "reconstruct_generic", "manhattan_score", "choose_method", "arrange_cells", "wall_lines",
-           "build_storey_shapes", "StoreyCells"]
+__all__ = ["GenericParams", "generic_model", "reconstruct_generic", "arrange_cells", "wall_lines",
+           "storey_cells", "build_storey_shapes", "StoreyCells"]
 
 log = logging.getLogger(__name__)
 
-_THETA = math.radians(10.0)
-
-
-def _seg_params():
-    from ..segmentation.params import ClassifyParams, NormalParams, PlaneParams, StoreyParams
-
-    return ClassifyParams, NormalParams, PlaneParams, StoreyParams
-
-
-def _default(name):
-    def make():
-        return dict(zip(("classify", "normals", "planes", "storeys"), _seg_params()))[name]()
-    return field(default_factory=make)
-
-
-@dataclass(frozen=True)
-class GenericParams:
-    """Parameters of the generic pipeline (SI units; thesis Table 6.5 defaults)."""
-
-    working_voxel: float = 0.02
-    """Voxel of the working cloud used for normals and planes, metres (0: no thinning)."""
-    max_working_points: int = 250_000
-    """The working voxel grows until the working cloud has about this many points (0: no
-    bound) — the scans' density is far above what coverage and planes need."""
-    shape_buffer: float = 0.05
-    """δ: points within this of a face belong to it, metres (above the noise, below half a
-    wall's thickness)."""
-    r_alpha: float = 0.2
-    """Circumradius bound of the alpha shapes, metres (SPEC.md §5: 0.2 m; above about twice
-    the point spacing). The ceiling's alpha shape is kept from bridging walls by the seen
-    wall faces (see :func:`~.coverage.measure_coverage`), not by a small r_α."""
-    coverage_angle: float = math.radians(45.0)
-    """Points enter the coverage measures as floor/ceiling points when their normal is
-    within this angle of vertical, as wall points when within it of horizontal, radians.
-    Wider than the clustering θ on purpose: far from the scanner, sparse ceilings get noisy
-    normals, and losing those points opens holes in the ceiling's alpha shape (the
-    coverage is measured near known faces, so the looser test admits little clutter)."""
-    min_wall_coverage: float = 0.2
-    """A cell face whose wall coverage reaches this share of its area is a seen wall."""
-    min_ceiling_area: float = 1.0
-    """Horizontal planes at least this large (m²) in a storey's upper half are its ceiling
-    levels; ceiling points for the coverage must lie near one (a door head is not a
-    ceiling)."""
-    ceiling_band: float = 0.1
-    """... within this distance, metres."""
-    alpha_spacing_factor: float = 5.0
-    """r_α is raised to this many median point spacings of the thinned ceiling points when
-    that is larger (sparse scans)."""
-    r_alpha_max: float = 0.6
-    """The ceiling's alpha shape follows the local spacing (``alpha_spacing_factor`` local
-    spacings) up to this circumradius, metres: a mobile scan samples a room's ceiling ten
-    times more sparsely at its edges than under the path. <= r_α: one r_α everywhere."""
-    wall_band: float = 0.6
-    """Wall coverage is measured in this band under the ceiling (walls reach the ceiling,
-    furniture rarely does), metres; 0: the whole face."""
-    coverage_grid: float = 0.04
-    """Points are thinned to one per cell of this grid before coverage is measured, metres;
-    also the voxel of the inside-area estimate."""
-    extent_margin: float = 0.3
-    """The storey's extent (box around its points) is grown by this, metres."""
-    min_wall_area: float = 0.5
-    """Wall planes with a smaller covered area do not cut the floor, m²."""
-    line_merge_angle: float = math.radians(2.0)
-    """Two wall lines closer than this in angle ..."""
-    line_merge_distance: float = 0.015
-    """... and this in offset are one line (duplicates would only make slivers), metres."""
-    min_cell_area: float = 0.01
-    """Cells smaller than this join their neighbour with the longest shared edge, m²."""
-    min_cell_width: float = 0.03
-    """... and so do cells narrower than this (``2 × area / perimeter``, metres): two wall
-    lines crossing at a few degrees, or two faces a centimetre apart, cut wedges and strips
-    that are no room and no wall (syn_house at 1M points: one such cell of 175)."""
-    min_face_length: float = 0.02
-    """Shared edges shorter than this do not make cells adjacent, metres."""
-    manhattan_threshold: float = 0.85
-    """``--method auto``: Manhattan grammar when :func:`manhattan_score` ≥ this. Measured
-    with the 3° tolerance: synthetic Manhattan presets 1.0, the real PCL room scans
-    0.92–0.93, syn_house 0.60–0.65, hexagon_hall 0.42."""
-    search: RjmcmcParams = field(default_factory=RjmcmcParams)
-    """The rjMCMC search (max wall thickness, k1..k3, μ, β, chain length)."""
-    classify: object = _default("classify")
-    """Point clusters (segmentation ``ClassifyParams``)."""
-    theta_spread_factor: float = 4.0
-    """θ of the point clusters follows the normals' noise: θ = clip(factor × s, θ of
-    ``classify``, ``max_theta``), s the median tilt of the near-vertical normals (|n_z| <
-    sin 30°). TLS scans give s ≈ 1° (θ stays 10°); a mobile scan with σ = 2 cm gives
-    s ≈ 3.6–4.5° from the same PCA neighbourhoods, and at θ = 10° 40–60 % of the points of
-    a sparsely seen wall fall into "other", so no plane is found there and two rooms share
-    cells (office_mw mobile seeds 0 and 3: 7 of 8 rooms; at θ ≈ 15°: 8 of 8, completeness
-    0.875 → 0.99). Departure from SPEC.md's θ ≤ 10°, for noisy normals only. 0: fixed θ."""
-    max_theta: float = math.radians(20.0)
-    """Upper bound of the noise-adaptive θ, radians."""
-    normals: object = _default("normals")
-    """Normals (segmentation ``NormalParams``)."""
-    planes: object = _default("planes")
-    """RANSAC planes (segmentation ``PlaneParams``)."""
-    storeys: object = _default("storeys")
-    """Storeys (segmentation ``StoreyParams``)."""
-
-
-# --------------------------------------------------------------------------- Manhattan-ness
-def manhattan_score(cloud: PointCloud, params: Optional["GenericParams"] = None, rng=0,
-                    angle_tolerance: float = math.radians(3.0), sample: int = 300_000) -> float:
-    """How Manhattan a building is: the share of wall area (RANSAC wall planes, weighted by
-    their covered area) whose direction lies within ``angle_tolerance`` of two perpendicular
-    horizontal directions (the best pair).
-
-    Plane directions are folded modulo 90°; the densest direction (a 0.5° histogram,
-    circularly smoothed over the tolerance) is the pair's; the score is the area share
-    within the tolerance of it. Plane normals are precise where point normals are noisy
-    (mobile scans), so the tolerance can be tight enough to tell a wall 7° off the axes
-    (syn_house) from an aligned one; 3° rather than 2° because real walls are not perfectly
-    square (the PCL room scan's long walls are 0.7° from parallel: it scored 0.86–0.90 at
-    2°, 0.92–0.93 at 3°). Box-room buildings score ≈ 1, the hexagonal hall
-    ≈ 0.3–0.5. ``--method auto`` picks the Manhattan grammar when the score reaches
-    :attr:`GenericParams.manhattan_threshold`.
-
-    Parameters
-    ----------
-    cloud : PointCloud — z up, metres; normals estimated when missing.
-    params : GenericParams (normals, clusters, storeys, planes).
-    rng : seed of the subsample and of RANSAC.
-    angle_tolerance : radians.
-    sample : at most this many points are used.
-
-    Returns
-    -------
-    float in [0, 1]; 0 when no wall plane is found.
-
-    Raises
-    ------
-    EmptyCloudError
-        Too few points.
-    """
-    from ..segmentation import classify_points, estimate_normals, voxel_downsample
-    from ..segmentation.planes import extract_planes
-
-    params = params or GenericParams()
-    rng = np.random.default_rng(rng)
-    if len(cloud) < 100:
-        raise EmptyCloudError(f"the cloud has {len(cloud)} points; at least 100 are needed", cloud.source or None)
-    work = voxel_downsample(cloud, params.working_voxel)[0] if params.working_voxel > 0 else cloud
-    if len(work) > sample:
-        work = work.subset(np.sort(rng.choice(len(work), sample, replace=False)))
-    if work.normals is None:
-        work = estimate_normals(work, params.normals)
-    labels = classify_points(work, params.classify)
-    try:
-        planes = extract_planes(work, params.planes, labels=labels, rng=rng)
-    except ReconstructionError:
-        return 0.0
-    walls = [p for p in planes if p.kind == "wall"]
-    if not walls:
-        return 0.0
-    phi = np.array([math.atan2(p.normal[1], p.normal[0]) for p in walls]) % (math.pi / 2)
-    w = np.array([max(p.area, 0.0) for p in walls])
-    if w.sum() <= 0:
-        return 0.0
-    bins = 180
-    h = np.bincount(np.floor(phi / (math.pi / 2) * bins).astype(int) % bins, weights=w, minlength=bins)
-    k = max(1, int(round(angle_tolerance / (math.pi / 2) * bins)))
-    smooth = sum(np.roll(h, j) for j in range(-k, k + 1))
-    peak = (np.argmax(smooth) + 0.5) * (math.pi / 2) / bins
-    dev = np.abs((phi - peak + math.pi / 4) % (math.pi / 2) - math.pi / 4)
-    return float(w[dev <= angle_tolerance].sum() / w.sum())
-
-
-def choose_method(cloud: PointCloud, params: Optional[GenericParams] = None, rng=0) -> tuple[str, float]:
-    """``--method auto``: "manhattan" when :func:`manhattan_score` ≥
-    ``params.manhattan_threshold``, else "generic". Returns (method, score)."""
-    params = params or GenericParams()
-    score = manhattan_score(cloud, params, rng=rng)
-    method = "manhattan" if score >= params.manhattan_threshold else "generic"
-    log.info("auto method: Manhattan score %.2f (threshold %.2f) -> %s", score, params.manhattan_threshold, method)
-    return method, score
-
 
 # --------------------------------------------------------------------------- cells
-def wall_lines(planes, storey: int, params: GenericParams) -> np.ndarray:
+def wall_lines(planes, storey: int, params: CellParams = CellParams()) -> np.ndarray:
     """(k, 3) float64 lines ``(nx, ny, ρ)`` (``nx x + ny y = ρ``, metres) of the wall planes of
     one storey, near-duplicates merged (support-weighted)."""
     rows = []
@@ -252,26 +76,21 @@ def wall_lines(planes, storey: int, params: GenericParams) -> np.ndarray:
     return np.array(kept, dtype=np.float64).reshape(-1, 3)
 
 
-def arrange_cells(lines: np.ndarray, extent, min_cell_area: float = 0.01,
-                  min_cell_width: float = 0.0) -> list:
+def arrange_cells(lines: np.ndarray, extent, params: CellParams = CellParams()) -> list:
     """2-D cells of the arrangement of lines inside a polygonal extent.
 
     Parameters
     ----------
     lines : (k, 3) float64 — ``(nx, ny, ρ)`` with unit ``(nx, ny)``, metres.
     extent : shapely Polygon — the region to partition (e.g. the storey's box).
-    min_cell_area : cells below this area (m²) join the neighbour with the longest shared
-        edge.
-    min_cell_width : so do cells whose width ``2 × area / perimeter`` is below this, metres.
+    params : CellParams — cells below ``min_cell_area`` or ``min_cell_width`` (``2 × area /
+        perimeter``) join the neighbour with the longest shared edge.
 
     Returns
     -------
     list of shapely Polygon — a partition of ``extent``; one polygon (the extent) when there
     are no lines.
     """
-    import shapely
-    from shapely.ops import polygonize
-
     minx, miny, maxx, maxy = extent.bounds
     R = 2.0 * math.hypot(maxx - minx, maxy - miny) + 1.0
     c = np.array([(minx + maxx) / 2, (miny + maxy) / 2])
@@ -286,12 +105,10 @@ def arrange_cells(lines: np.ndarray, extent, min_cell_area: float = 0.01,
             segs.append(cl)
     noded = shapely.union_all(segs)
     cells = [p for p in polygonize(noded) if p.area > 0 and extent.contains(p.representative_point())]
-    return _merge_small(cells, min_cell_area, min_cell_width)
+    return _merge_small(cells, params.min_cell_area, params.min_cell_width)
 
 
-def _merge_small(cells: list, min_area: float, min_width: float = 0.0) -> list:
-    import shapely
-
+def _merge_small(cells: list, min_area: float, min_width: float) -> list:
     cells = list(cells)
     changed = True
     while changed and len(cells) > 1:
@@ -324,17 +141,19 @@ def _merge_small(cells: list, min_area: float, min_width: float = 0.0) -> list:
 
 @dataclass(frozen=True, eq=False)
 class StoreyCells:
-    """The cells of one storey with their search result (for the model builder)."""
+    """The cells of one storey (``index`` in the preprocessing's storeys, ``lines`` the wall
+    lines that cut them), then their coverage and search result (for the model builder)."""
 
     storey: Storey
     cells: CellSet
-    coverage: object
-    result: SearchResult
+    coverage: object = None
+    result: Optional[SearchResult] = None
+    index: int = 0
+    lines: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 # --------------------------------------------------------------------------- model
 def _polygon_coords(poly) -> np.ndarray:
-    import shapely
 
     poly = shapely.simplify(shapely.normalize(poly), 1e-7)
     return np.asarray(poly.exterior.coords)[:-1, :2]
@@ -360,7 +179,6 @@ def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) 
     -------
     list of Shape — active spaces/walls/exterior, inactive cells (children).
     """
-    import shapely
 
     cells, cov, res = sc.cells, sc.coverage, sc.result
     st = sc.storey
@@ -477,10 +295,8 @@ def _name_shapes(shapes: list[Shape]) -> list[Shape]:
 
 
 def assemble_model(storeys: list[StoreyCells], params: GenericParams, *, seed=None,
-                   timings=None, source: str = "") -> BuildingModel:
+                   timings=None, source: str = "", prep_params: Optional[PreprocessParams] = None) -> BuildingModel:
     """A BuildingModel from the searched storeys, with topology (adjacency via walls)."""
-    from .rules import derive_topology
-
     shapes = []
     for i, sc in enumerate(storeys):
         shapes.extend(build_storey_shapes(sc, i, params.search.max_wall_thickness))
@@ -489,77 +305,56 @@ def assemble_model(storeys: list[StoreyCells], params: GenericParams, *, seed=No
                              "acceptance_rate": sc.result.acceptance_rate,
                              "iterations": sc.result.iterations, "spaces": len(sc.result.spaces)}
              for i, sc in enumerate(storeys)}
-    prov = Provenance(method="generic", parameters=_params_dict(params), seed=seed,
+    prov = Provenance(method="generic", parameters=_params_dict(params, prep_params), seed=seed,
                       timings=dict(timings or {}), trace=trace, source=source)
     model = BuildingModel(shapes=tuple(shapes), storeys=tuple(sc.storey for sc in storeys), provenance=prov)
     return derive_topology(model)
 
 
-def _params_dict(params: GenericParams) -> dict:
-    out = {}
-    for k, v in params.__dict__.items():
-        out[k] = asdict(v) if hasattr(v, "__dataclass_fields__") else v
+def _params_dict(params: GenericParams, prep_params: Optional[PreprocessParams]) -> dict:
+    out = asdict(params)
+    if prep_params is not None:
+        out["preprocess"] = asdict(prep_params)
     out["tau"] = 0.3
     return out
 
 
 # --------------------------------------------------------------------------- pipeline
-def _storeys_of(cloud: PointCloud, labels: np.ndarray, params: GenericParams) -> list[Storey]:
-    from ..segmentation import detect_storeys
-
-    try:
-        return list(detect_storeys(cloud, params.storeys))
-    except ReconstructionError as e:
-        from ..segmentation import CLASS_HORIZONTAL
-
-        z = cloud.xyz[labels == CLASS_HORIZONTAL, 2]
-        if len(z) < 10:
-            raise ReconstructionError(f"no storey found ({e}) and too few floor/ceiling points",
-                                      cloud.source or None) from None
-        lo, hi = np.percentile(z, [1, 99])
-        log.warning("storey detection failed (%s); one storey from %.2f to %.2f m", e, lo, hi)
-        return [Storey(0, float(lo), float(hi), "Storey 0", float(lo))]
+def _storey_points(work: PointCloud, storeys: list, si: int, delta: float):
+    """Working points of storey ``si`` (from just below its floor to just below the next
+    floor, so rooms of several ceiling heights belong to it) and |n_z| of their normals."""
+    st = storeys[si]
+    top_z = storeys[si + 1].floor_z - delta if si + 1 < len(storeys) else np.inf
+    inz = (work.xyz[:, 2] >= st.floor_z - delta) & (work.xyz[:, 2] <= top_z)
+    return work.xyz[inz], np.abs(work.normals[inz, 2].astype(np.float64))
 
 
-def normal_tilt_spread(normals: np.ndarray) -> float:
-    """Median tilt from horizontal of the near-vertical-surface normals (|n_z| < sin 30°),
-    radians: how noisy the normals of walls are (0 when there are none)."""
-    nz = np.abs(np.asarray(normals, dtype=np.float64).reshape(-1, 3)[:, 2])
-    wall = nz < 0.5
-    return float(np.arcsin(np.median(nz[wall]))) if wall.any() else 0.0
+def storey_cells(prep: Prepared, params: GenericParams = GenericParams()) -> list:
+    """The **place** rule per storey: wall lines cut the storey's extent (its points' box
+    grown by ``cells.extent_margin``) into cells between floor and ceiling.
 
-
-def _cluster_params(work: PointCloud, params: "GenericParams"):
-    """The point-cluster parameters with θ raised for noisy normals (``theta_spread_factor``)."""
-    from dataclasses import replace
-
-    base = params.classify
-    if params.theta_spread_factor <= 0:
-        return base
-    theta = min(max(base.angle_tolerance, params.theta_spread_factor * normal_tilt_spread(work.normals)),
-                max(params.max_theta, base.angle_tolerance))
-    if theta > base.angle_tolerance:
-        log.info("noisy normals: point clusters with θ = %.1f°", math.degrees(theta))
-    return replace(base, angle_tolerance=theta)
-
-
-def _working_cloud(cloud: PointCloud, params: "GenericParams") -> PointCloud:
-    """Voxel-thinned working cloud of at most about ``params.max_working_points`` points:
-    the voxel grows with the square root of the excess (the points lie on surfaces)."""
-    from ..segmentation import voxel_downsample
-
-    if params.working_voxel <= 0:
-        return cloud
-    work = voxel_downsample(cloud, params.working_voxel)[0]
-    if params.max_working_points and len(work) > params.max_working_points:
-        voxel = params.working_voxel * math.sqrt(len(work) / params.max_working_points)
-        work = voxel_downsample(cloud, voxel)[0]
-        log.info("working cloud: voxel %.3f m -> %d points", voxel, len(work))
-    return work
+    Returns
+    -------
+    list of StoreyCells (``coverage`` and ``result`` None) for the storeys with points.
+    """
+    out = []
+    delta = params.coverage.shape_buffer
+    for si, st in enumerate(prep.storeys):
+        xyz, _ = _storey_points(prep.working, prep.storeys, si, delta)
+        if len(xyz) < 10:
+            continue
+        z_hi = max(st.ceiling_z, float(np.percentile(xyz[:, 2], 99.9)))
+        margin = params.cells.extent_margin
+        lo, hi = xyz[:, :2].min(axis=0) - margin, xyz[:, :2].max(axis=0) + margin
+        lines = wall_lines(prep.planes, si, params.cells)
+        polys = arrange_cells(lines, shapely.box(lo[0], lo[1], hi[0], hi[1]), params.cells)
+        cells = cellset_from_polygons(polys, (st.floor_z, z_hi), params.cells.min_face_length)
+        out.append(StoreyCells(st, cells, index=si, lines=lines))
+    return out
 
 
 def _near_ceiling_levels(z: np.ndarray, planes, storey: int, z0: float, z1: float,
-                         params: "GenericParams") -> np.ndarray:
+                         params: CoverageParams) -> np.ndarray:
     """(n,) bool: False for upper-half points that are far from every large horizontal
     plane (door heads, shelf tops seen from below are not ceiling); lower-half points and
     all points when no large plane is known stay True."""
@@ -574,104 +369,79 @@ def _near_ceiling_levels(z: np.ndarray, planes, storey: int, z0: float, z1: floa
     return near | (z <= mid)
 
 
-def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = None, *, rng=None,
-                        progress=None, should_stop=None) -> BuildingModel:
-    """Scan → model with the generic grammar and the rjMCMC search (SPEC.md §3).
+def generic_model(prep: Prepared, params: GenericParams = GenericParams(), *, rng=None,
+                  progress=None, should_stop=None) -> BuildingModel:
+    """The generic method on preprocessed data (docs/method.md §3).
 
     Parameters
     ----------
-    cloud : PointCloud
-        z up (levelled), metres; (n, 3) float64 ``xyz``; normals are estimated when missing.
-        Walls may run in any direction.
-    params : GenericParams, optional
-    rng : numpy Generator, int or None — seeds RANSAC and the search; same seed, same model.
-    progress, should_stop : see :class:`engine.progress.Progress`.
+    prep : Prepared — with planes (:func:`engine.pipeline.preprocess`).
+    params : GenericParams
+    rng : seed or Generator of the search (continues the preprocessing's Generator in
+        :func:`engine.reconstruct.reconstruct`); same seed, same model.
 
     Returns
     -------
     BuildingModel
-        Interior spaces (active prisms over unions of cells), walls, exterior, the cells as
-        inactive parts, adjacency relations; provenance method "generic" with the search
-        trace of every storey (``provenance.trace["storey_<i>"]``) and timings.
+        Interior spaces (prisms over unions of cells), walls, exterior, the cells as inactive
+        parts, adjacency; provenance "generic" with each storey's search trace
+        (``provenance.trace["storey_<i>"]``) and timings.
 
     Raises
     ------
-    EmptyCloudError
-        Too few points.
     ReconstructionError
-        No storey, no wall plane, or no cell.
+        No storey with points.
     """
-    import shapely
-
-    from ..segmentation import classify_points, estimate_normals
-    from ..segmentation.planes import extract_planes
-
-    params = params or GenericParams()
     seed = int(rng) if isinstance(rng, (int, np.integer)) else None
-    rng = np.random.default_rng(rng)
+    rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     p = Progress.wrap(progress, should_stop)
-    if len(cloud) < 100:
-        raise EmptyCloudError(f"the cloud has {len(cloud)} points; at least 100 are needed", cloud.source or None)
-    timings = {}
+    timings = dict(prep.timings)
     t0 = time.perf_counter()
-    work = _working_cloud(cloud, params)
-    if work.normals is None:
-        p(0.02, "normals")
-        work = estimate_normals(work, params.normals)
-    labels = classify_points(work, _cluster_params(work, params))
-    timings["preprocess"] = time.perf_counter() - t0
-    p.check()
-    t1 = time.perf_counter()
-    storeys = _storeys_of(work, labels, params)
-    timings["storeys"] = time.perf_counter() - t1
-    t1 = time.perf_counter()
-    p(0.1, "planes")
-    planes = extract_planes(work, params.planes, labels=labels, storeys=storeys, rng=rng,
-                            progress=p.sub(0.1, 0.5), should_stop=should_stop)
-    timings["planes"] = time.perf_counter() - t1
+    arranged = storey_cells(prep, params)
+    timings["cells"] = time.perf_counter() - t0
+    cov_p = params.coverage
     out = []
-    t_cells = t_cov = t_search = 0.0
-    for si, st in enumerate(storeys):
+    t_cov = t_search = 0.0
+    for k, sc in enumerate(arranged):
         p.check()
-        a, b = 0.5 + 0.45 * si / len(storeys), 0.5 + 0.45 * (si + 1) / len(storeys)
+        a, b = 0.05 + 0.9 * k / len(arranged), 0.05 + 0.9 * (k + 1) / len(arranged)
         t1 = time.perf_counter()
-        # the storey reaches up to the next storey's floor (rooms of several ceiling heights)
-        top_z = storeys[si + 1].floor_z - params.shape_buffer if si + 1 < len(storeys) else np.inf
-        inz = (work.xyz[:, 2] >= st.floor_z - params.shape_buffer) & (work.xyz[:, 2] <= top_z)
-        xyz = work.xyz[inz]
-        nz = np.abs(work.normals[inz, 2].astype(np.float64))
-        if len(xyz) < 10:
-            continue
-        z_hi = max(st.ceiling_z, float(np.percentile(xyz[:, 2], 99.9)))
-        lo, hi = xyz[:, :2].min(axis=0) - params.extent_margin, xyz[:, :2].max(axis=0) + params.extent_margin
-        extent = shapely.box(lo[0], lo[1], hi[0], hi[1])
-        lines = wall_lines(planes, si, params)
-        polys = arrange_cells(lines, extent, params.min_cell_area, params.min_cell_width)
-        cells = cellset_from_polygons(polys, (st.floor_z, z_hi), params.min_face_length)
-        t_cells += time.perf_counter() - t1
-        t1 = time.perf_counter()
-        hmask = nz >= math.cos(params.coverage_angle)
-        wmask = nz <= math.sin(params.coverage_angle)
-        hmask &= _near_ceiling_levels(xyz[:, 2], planes, si, st.floor_z, z_hi, params)
-        cov = measure_coverage(cells, xyz[wmask], xyz[hmask],
-                               shape_buffer=params.shape_buffer, r_alpha=params.r_alpha,
-                               thin=params.coverage_grid, min_wall_coverage=params.min_wall_coverage,
-                               wall_band=params.wall_band, alpha_spacing_factor=params.alpha_spacing_factor,
-                               r_alpha_max=params.r_alpha_max,
-                               should_check=p.check)
+        xyz, nz = _storey_points(prep.working, prep.storeys, sc.index, cov_p.shape_buffer)
+        z_hi = float(sc.cells.z_range[:, 1].max()) if len(sc.cells) else sc.storey.ceiling_z
+        hmask = nz >= math.cos(cov_p.coverage_angle)
+        wmask = nz <= math.sin(cov_p.coverage_angle)
+        hmask &= _near_ceiling_levels(xyz[:, 2], prep.planes, sc.index, sc.storey.floor_z, z_hi, cov_p)
+        cov = measure_coverage(sc.cells, xyz[wmask], xyz[hmask], cov_p, should_check=p.check)
         t_cov += time.perf_counter() - t1
         t1 = time.perf_counter()
-        res = search_spaces(cells, cov, params.search, rng=rng, progress=p.sub(a, b), should_stop=should_stop)
+        res = search_spaces(sc.cells, cov, params.search, rng=rng, progress=p.sub(a, b), should_stop=should_stop)
         t_search += time.perf_counter() - t1
-        log.info("storey %d: %d wall lines, %d cells, %d spaces", si, len(lines), len(cells), len(res.spaces))
-        out.append(StoreyCells(st, cells, cov, res))
+        log.info("storey %d: %d wall lines, %d cells, %d spaces", sc.index, len(sc.lines), len(sc.cells),
+                 len(res.spaces))
+        out.append(StoreyCells(sc.storey, sc.cells, cov, res, index=sc.index, lines=sc.lines))
     if not out:
-        raise ReconstructionError("no storey with points to reconstruct", cloud.source or None)
-    timings.update(cells=t_cells, coverage=t_cov, rjmcmc=t_search)
+        raise ReconstructionError("no storey with points to reconstruct", prep.cloud.source or None)
+    timings.update(coverage=t_cov, rjmcmc=t_search)
     t1 = time.perf_counter()
-    model = assemble_model(out, params, seed=seed, timings=timings, source=cloud.source or "")
+    model = assemble_model(out, params, seed=seed, timings=timings, source=prep.cloud.source or "",
+                           prep_params=prep.params)
     timings["model"] = time.perf_counter() - t1
-    timings["total"] = time.perf_counter() - t0
+    timings["total"] = sum(v for k, v in timings.items() if k != "total")
     model = model.with_(provenance=Provenance(**{**model.provenance.__dict__, "timings": timings}))
     p(1.0, "generic reconstruction done")
+    return model
+
+
+def reconstruct_generic(cloud: PointCloud, params: Optional[GenericParams] = None, *, rng=None,
+                        progress=None, should_stop=None,
+                        preprocess_params: PreprocessParams = PreprocessParams()) -> BuildingModel:
+    """Scan (metres, z up) → model with the generic method: :func:`engine.pipeline.preprocess`
+    then :func:`generic_model`, one Generator seeded by ``rng`` for both (as
+    :func:`engine.reconstruct.reconstruct` does)."""
+    p = Progress.wrap(progress, should_stop)
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    prep = preprocess(cloud, preprocess_params, rng=gen, progress=p.sub(0.0, 0.5))
+    model = generic_model(prep, params or GenericParams(), rng=gen, progress=p.sub(0.5, 1.0))
+    if isinstance(rng, (int, np.integer)):
+        model = model.with_(provenance=Provenance(**{**model.provenance.__dict__, "seed": int(rng)}))
     return model

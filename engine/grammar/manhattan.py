@@ -1,4 +1,4 @@
-"""The Manhattan shape grammar (SPEC.md §2; thesis Ch. 3): the procedure.
+"""The Manhattan shape grammar (docs/method.md §2; thesis Ch. 3): the procedure.
 
 Production order (thesis Fig. 3.6)::
 
@@ -6,9 +6,9 @@ Production order (thesis Fig. 3.6)::
       → (merge, containment, adjacency)* → [manual doors] → connectivity*
 
 :func:`reconstruct_grammar` runs it on an aligned cloud (the grammar core, callable
-without any preprocessing); :func:`reconstruct_manhattan` adds normals, Manhattan
-alignment and storeys in front of it and returns a :class:`BuildingModel` in the aligned
-frame with ``model.transform`` mapping back to the input.
+without any preprocessing); :func:`manhattan_model` runs it on the shared preprocessing
+(:mod:`engine.pipeline`) and returns a :class:`BuildingModel` in the aligned frame with
+``model.transform`` mapping back to the input.
 
 Parts are the placed cuboids, ids ``s<storey>_c<i>_<j>_<k>`` with ``grid=(i, j, k)``;
 each stores the point-on-face index of its six faces (``ipof_f0`` … ``ipof_f5``, faces in
@@ -42,22 +42,26 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import asdict, replace
 from typing import Optional, Sequence
 
 import numpy as np
 
 from ..errors import EmptyCloudError, ReconstructionError
+from ..geometry.normals import knn_normals
 from ..model import BuildingModel, Provenance, Shape, ShapeType, Storey
+from ..pipeline import Prepared, align, preprocess
 from ..pointcloud import PointCloud
 from ..progress import Progress
+from ..segmentation.cleaning import estimate_normals
+from ..segmentation.params import PreprocessParams
 from .geometry import box_of
 from .ipof import grid_face_index
-from .params import ManhattanParams, estimate_spacing, params_from_data
-from .place import (StoreyFrame, detect_levels, estimate_normals_pca, histogram_peaks, storey_chunks,
-                    storey_frame)
+from .params import ManhattanParams, params_from_data
+from .place import StoreyFrame, detect_levels, histogram_peaks, storey_chunks, storey_frame
 from .rules import classify, derive_topology
 
-__all__ = ["reconstruct_manhattan", "reconstruct_grammar", "align_fallback", "place_storey"]
+__all__ = ["manhattan_model", "reconstruct_manhattan", "reconstruct_grammar", "place_storey"]
 
 log = logging.getLogger(__name__)
 
@@ -362,9 +366,12 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
     xyz = cloud.xyz
     params = _complete_params(xyz, params)
     spacing = float(params.spacing)
-    normals = cloud.normals.astype(np.float64) if cloud.normals is not None else \
-        estimate_normals_pca(xyz, params.normal_neighbours)
-    timings = {"normals": time.perf_counter() - t0}
+    timings = {}
+    if cloud.normals is not None:
+        normals = cloud.normals.astype(np.float64)
+    else:
+        normals = knn_normals(xyz, params.normal_neighbours)
+        timings["normals"] = time.perf_counter() - t0
     p(0.2, "levels and storeys")
     t1 = time.perf_counter()
     hor = np.abs(normals[:, 2]) >= np.cos(params.normal_angle)
@@ -422,95 +429,62 @@ def _complete_params(xyz, params):
     return params
 
 
-# --------------------------------------------------------------------------- alignment
-def align_fallback(xyz: np.ndarray, normals: np.ndarray, max_angle: float) -> np.ndarray:
-    """Minimal Manhattan alignment, (4, 4) float64 input → aligned rotation.
+# --------------------------------------------------------------------------- the method
+def manhattan_model(prep: Prepared, params: Optional[ManhattanParams] = None, *, rng=None,
+                    progress=None, should_stop=None) -> BuildingModel:
+    """The Manhattan method on preprocessed data (docs/method.md §2).
 
-    Used only when ``engine.segmentation`` is not available. Up = the dominant direction
-    of the normals that are within ``max_angle`` of z (floors and ceilings); the rotation
-    about up is the mean of the wall normals' azimuths folded to 90° (circular mean of
-    4φ). ``xyz`` : (n, 3), ``normals`` : (n, 3) unit.
-    """
-    n = np.asarray(normals, dtype=np.float64)
-    R = np.eye(3)
-    h = n[np.abs(n[:, 2]) >= np.cos(max_angle)]
-    if len(h) >= 3:
-        h = h * np.sign(h[:, 2:3])
-        w, v = np.linalg.eigh(h.T @ h)
-        up = v[:, -1] * np.sign(v[2, -1])
-        axis = np.cross(up, [0.0, 0.0, 1.0])
-        s, c = np.linalg.norm(axis), up[2]
-        if s > 1e-9:
-            k = axis / s
-            K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-            R = np.eye(3) + s * K + (1 - c) * K @ K
-    n2 = n @ R.T
-    vert = np.abs(n2[:, 2]) <= np.sin(max_angle)
-    phi = np.arctan2(n2[vert, 1], n2[vert, 0])
-    if len(phi):
-        ang = np.angle(np.sum(np.exp(4j * phi))) / 4
-        c, s = np.cos(-ang), np.sin(-ang)
-        R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]]) @ R
-    M = np.eye(4)
-    M[:3, :3] = R
-    return M
-
-
-def reconstruct_manhattan(cloud: PointCloud, params: Optional[ManhattanParams] = None, *, rng=None,
-                          progress=None, should_stop=None) -> BuildingModel:
-    """Scan → Manhattan building model (SPEC.md §1–2).
-
-    Preprocessing comes from ``engine.segmentation``: PCA normals (when the cloud has
-    none), Manhattan alignment and storeys (floor and main ceiling of each); the grammar
-    then finds every ceiling level inside each storey itself (rooms of their own height).
+    The grammar reads the normal of every input point: they are estimated on the full cloud
+    (when it has none) and fix the Manhattan alignment (:func:`engine.pipeline.align`). The
+    grammar runs on the full cloud in the aligned frame, per storey of the preprocessing (its
+    own level analysis when those are a fallback), and finds every ceiling level inside each
+    storey itself.
 
     Parameters
     ----------
-    cloud : PointCloud — any orientation; z roughly up.
-    params : ManhattanParams or None (chosen from the data: :func:`params_from_data`).
-    rng : seed or Generator (alignment k-means restarts, spacing/noise sampling).
-    progress, should_stop : see :class:`engine.progress.Progress`.
+    prep : Prepared
+    params : ManhattanParams or None (σ, δ, bin chosen from the data: :func:`params_from_data`).
+    rng : seed or Generator (alignment restarts, spacing/noise sampling).
 
     Returns
     -------
     BuildingModel in the aligned frame; ``model.transform`` maps it to the input frame.
-    Raises ``EmptyCloudError`` / ``ReconstructionError`` for unusable data and
-    ``Cancelled`` when ``should_stop`` says so.
     """
-    from ..errors import ReconstructionError as _RE
-    from ..segmentation import align_manhattan, detect_storeys, estimate_normals
-
-    rng = np.random.default_rng(rng)
+    rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     p = Progress.wrap(progress, should_stop)
+    t0 = time.perf_counter()
+    seed = int(rng.integers(2**31))
+    p(0.0, "Manhattan alignment")
+    full = prep.cloud
+    if full.normals is None:
+        # the grammar reads every point's normal: PCA on the full cloud, over at least
+        # ``radius_spacings`` point spacings (far walls of a terrestrial scan are sparse)
+        npar = prep.params.normals
+        full = estimate_normals(full, replace(npar, radius=max(npar.radius, npar.radius_spacings * prep.spacing)))
+    prep = align(prep, rng=seed, cloud=full)
+    aligned = prep.cloud.transformed(np.linalg.inv(prep.transform))  # with normals (align)
+    storeys = prep.storeys if prep.storeys_found else None
+    base = params or ManhattanParams()
+    if base.spacing is None:
+        base = base.with_(spacing=prep.spacing)  # measured once, by the preprocessing
+    params = base if base.complete else params_from_data(aligned.xyz, base, rng=seed)
+    t_pre = time.perf_counter() - t0
+    p.check()
+    model = reconstruct_grammar(aligned, params, storeys, progress=p.sub(0.1, 1.0), transform=prep.transform)
+    timings = {**prep.timings, "align_and_normals": t_pre, **model.provenance.timings}
+    return model.with_(provenance=Provenance(
+        method="manhattan", parameters={**params.to_dict(), "preprocess": asdict(prep.params)}, seed=seed,
+        timings=timings, trace=model.provenance.trace, source=prep.cloud.source, software="indoor engine"))
+
+
+def reconstruct_manhattan(cloud: PointCloud, params: Optional[ManhattanParams] = None, *, rng=None,
+                          progress=None, should_stop=None,
+                          preprocess_params: PreprocessParams = PreprocessParams()) -> BuildingModel:
+    """Scan (metres, z roughly up) → Manhattan model: :func:`engine.pipeline.preprocess`
+    (without planes) then :func:`manhattan_model`, one Generator seeded by ``rng``."""
     if cloud.n < 10:
         raise EmptyCloudError("too few points for a reconstruction", cloud.source or None)
-    t0 = time.perf_counter()
-    p(0.0, "normals")
-    seed = int(rng.integers(2**31))
-    base = params or ManhattanParams()
-    if cloud.normals is None:
-        # PCA needs a neighbourhood of a few point spacings: sparse clouds (mobile
-        # scans) get a wider radius than the segmentation default
-        from ..segmentation import NormalParams
-
-        sigma = estimate_spacing(cloud.xyz, rng=seed)
-        np_ = NormalParams()
-        cloud = estimate_normals(cloud, NormalParams(radius=max(np_.radius, 2.5 * sigma),
-                                                     max_nn=np_.max_nn,
-                                                     orient_to_scanner=np_.orient_to_scanner))
-    p(0.1, "Manhattan alignment")
-    aligned, T = align_manhattan(cloud, rng=seed)
-    p(0.15, "storeys")
-    try:
-        storeys = detect_storeys(aligned)
-    except _RE as e:  # fall back to the grammar's own slab/level analysis
-        log.warning("segmentation found no storey (%s); using the grammar's level analysis", e)
-        storeys = None
-    if params is None or not params.complete:
-        params = params_from_data(aligned.xyz, base, rng=seed)
-    t_pre = time.perf_counter() - t0
-    model = reconstruct_grammar(aligned, params, storeys, progress=p.sub(0.2, 1.0), transform=T)
-    timings = {"preprocess": t_pre, **model.provenance.timings}
-    return model.with_(provenance=Provenance(
-        method="manhattan", parameters=params.to_dict(), seed=seed, timings=timings,
-        trace=model.provenance.trace, source=cloud.source, software="indoor engine"))
+    p = Progress.wrap(progress, should_stop)
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    prep = preprocess(cloud, preprocess_params, rng=gen, planes=False, progress=p.sub(0.0, 0.2))
+    return manhattan_model(prep, params, rng=gen, progress=p.sub(0.2, 1.0))

@@ -7,12 +7,148 @@ rules for that choice are written next to each field.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, replace
+import math
+from dataclasses import asdict, dataclass, field, replace
 from typing import Optional
 
 import numpy as np
 
-__all__ = ["ManhattanParams", "params_from_data", "estimate_noise", "estimate_spacing"]
+from ..geometry.spacing import estimate_spacing
+from ..quantities import Count, Factor, Flag, Metres, OptionalMetres, Percent, Radians, Ratio, SquareMetres
+
+__all__ = ["ManhattanParams", "GenericParams", "CellParams", "CoverageParams", "RjmcmcParams", "params_from_data", "estimate_noise", "estimate_spacing"]
+
+
+@dataclass(frozen=True)
+class CellParams:
+    """The generic method's cells: wall lines cut each storey's extent (docs/method.md §3.1)."""
+
+    min_wall_area: SquareMetres = 0.5
+    """Wall planes with a smaller covered area do not cut the floor, m²."""
+    line_merge_angle: Radians = math.radians(2.0)
+    """Two wall lines closer than this in angle ..."""
+    line_merge_distance: Metres = 0.015
+    """... and this in offset are one line (duplicates would only make slivers), metres."""
+    extent_margin: Metres = 0.3
+    """The storey's extent (box around its points) is grown by this, metres."""
+    min_cell_area: SquareMetres = 0.01
+    """Cells smaller than this join their neighbour with the longest shared edge, m²."""
+    min_cell_width: Metres = 0.03
+    """... and so do cells narrower than this (``2 × area / perimeter``), metres: wedges and
+    strips between lines crossing at a few degrees are no room and no wall."""
+    min_face_length: Metres = 0.02
+    """Shared edges shorter than this do not make cells adjacent, metres."""
+
+
+@dataclass(frozen=True)
+class CoverageParams:
+    """Coverage of cells and faces by the points, measured once per storey (docs/method.md §3.2)."""
+
+    shape_buffer: Metres = 0.05
+    """δ: points within this of a face belong to it, metres (above the noise, below half a
+    wall's thickness)."""
+    r_alpha: Metres = 0.2
+    """Circumradius bound of the alpha shapes, metres (about twice the point spacing or more)."""
+    coverage_angle: Radians = math.radians(45.0)
+    """A point counts as floor/ceiling when its normal is within this of vertical, as wall
+    when within it of horizontal, radians (wider than θ: sparse ceilings have noisy normals)."""
+    min_wall_coverage: Ratio = 0.2
+    """A cell face whose wall coverage reaches this share of its area is a seen wall."""
+    min_ceiling_area: SquareMetres = 1.0
+    """Horizontal planes at least this large in a storey's upper half are its ceiling levels,
+    m²; ceiling points must lie near one (a door head is not a ceiling)."""
+    ceiling_band: Metres = 0.1
+    """... within this distance, metres."""
+    alpha_spacing_factor: Factor = 5.0
+    """r_α follows the local spacing of the thinned ceiling points: this many spacings ..."""
+    r_alpha_max: Metres = 0.6
+    """... up to this circumradius, metres (<= r_α: one r_α everywhere)."""
+    wall_band: Metres = 0.6
+    """Wall coverage is measured in this band under the ceiling, metres; 0: the whole face."""
+    coverage_grid: Metres = 0.04
+    """Points are thinned to one per cell of this grid before coverage is measured, metres."""
+
+
+@dataclass(frozen=True)
+class RjmcmcParams:
+    """Parameters of the rjMCMC search (docs/method.md §3.3, thesis Table 6.5 defaults)."""
+
+    max_wall_thickness: Metres = 0.3
+    """Prior: a space must be wider than this (smaller side of its scope), metres."""
+    min_space_area: SquareMetres = 1.0
+    """Prior: ... and have at least this floor area, m² (a WC is about 1.2 m²). Departure
+    from SPEC.md, whose prior has the width alone: a sliver between a slanted wall and the
+    line of another wall, 0.3 m wide and 0.4 m² (syn_house seed 3), scored as a sixth room
+    by a margin of 1e-3 in log P. 0: width alone."""
+    k1: Factor = 1.0 / 3.0
+    """Weight of the horizontal coverage P_hor in the global likelihood."""
+    k2: Factor = 1.0 / 3.0
+    """Weight of the vertical coverage P_vert."""
+    k3: Factor = 1.0 / 3.0
+    """Weight of the plausibility P_plaus (lower it in cluttered scenes)."""
+    mu_same: Factor = 1.0
+    """μ when M_t and M_{t+1} have the same number of spaces."""
+    mu_fewer_to_more: Factor = 0.83
+    """μ when M_t has fewer spaces than M_{t+1}."""
+    mu_more_to_fewer: Factor = 0.9
+    """μ when M_t has more spaces than M_{t+1}."""
+    connected_cover: Flag = True
+    """Prior: the covered cells of a space (ceiling coverage ratio ≥ ``cover_ratio``) must
+    be connected through shared faces (see the module doc)."""
+    cover_ratio: Ratio = 0.5
+    """A cell is *covered* when this share of its footprint is under the ceiling's alpha
+    shape."""
+    link_length: Metres = 0.15
+    """Covered cells of a space must connect through faces at least this long, metres
+    (about half a wall's thickness), that are not seen walls."""
+    beta: Factor = 0.0
+    """Convergence factor β: accept when α > U, U ~ Uniform[β, 1] (0: plain MH)."""
+    iterations: Count = 0
+    """Chain length; 0 picks ``max(min_iterations, iterations_per_cell × cells)``."""
+    iterations_per_cell: Count = 60
+    """Automatic chain length per cell."""
+    min_iterations: Count = 2000
+    """Smallest automatic chain length."""
+    min_ratio: Ratio = 1e-6
+    """Coverage ratios and P_G are floored at this before the logarithm (a space with no
+    ceiling point is then very unlikely rather than impossible)."""
+    greedy_start: Flag = True
+    """Start the chain from a greedy best-improvement ascent from the empty model (see the
+    module doc); False starts from the empty model (or ``initial``) as the thesis does."""
+    polish: Flag = True
+    """Greedy best-improvement moves after the chain (see the module doc)."""
+    area_weighted_local: Flag = True
+    """``log P_L = Σ_i (|M_i.top| / Cov(hpoints)) · log(Cov(M_i.top)/|M_i.top|)`` instead of
+    the plain product of ratios (see the module doc); False: SPEC.md's product."""
+    absorb_covered: Flag = True
+    """After the search, an untyped *covered* cell adjacent to exactly one space joins it
+    (repeated until nothing changes): it lies under that room's ceiling. So does a
+    *walled-in* one (see ``walled_in_ratio``). See the module doc."""
+    walled_in_ratio: Ratio = 0.1
+    """An untyped cell adjacent to exactly one space and walled in otherwise (no way out but
+    through that space, :meth:`SpaceSearch.walled_in`) joins it when at least this share of
+    its footprint is under the ceiling — a sparsely seen corner; a column or a cupboard
+    reaching the ceiling, walled-in too, has no ceiling over it. > 1: off."""
+    trace_every: Count = 50
+    """Record (iteration, log-score, spaces) in the trace every this many iterations."""
+
+    def __post_init__(self):
+        if not (0.0 <= self.beta <= 1.0):
+            raise ValueError("beta must lie in [0, 1]")
+        if min(self.k1, self.k2, self.k3) < 0 or abs(self.k1 + self.k2 + self.k3 - 1.0) > 1e-6:
+            raise ValueError("k1, k2, k3 must be non-negative and sum to 1")
+
+
+@dataclass(frozen=True)
+class GenericParams:
+    """The generic method: cells, their coverage, the rjMCMC search (thesis Table 6.5)."""
+
+    cells: CellParams = field(default_factory=CellParams)
+    coverage: CoverageParams = field(default_factory=CoverageParams)
+    search: RjmcmcParams = field(default_factory=RjmcmcParams)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
 
 
 @dataclass(frozen=True)
@@ -33,57 +169,57 @@ class ManhattanParams:
     the wall tests for real furnished rooms.
     """
 
-    tau: float = 0.3
+    tau: Ratio = 0.3
     """τ: a face is "seen" when its point-on-face index reaches τ (0–1)."""
-    bin_size: Optional[float] = None
+    bin_size: OptionalMetres = None
     """Histogram bin of the place rule, metres (thesis: 0.03–0.05; ≤ max wall thickness / 2);
     None = choose from the data."""
-    shape_buffer: Optional[float] = None
+    shape_buffer: OptionalMetres = None
     """δ: points within this distance of a face count for its point-on-face index, metres;
     None = choose from the data."""
-    max_wall_thickness: float = 0.5
+    max_wall_thickness: Metres = 0.5
     """A cuboid whose smaller horizontal size is at most this may be a wall, metres."""
-    min_interval: float = 0.05
+    min_interval: Metres = 0.05
     """Two histogram peaks closer than this are one surface (no cuboid thinner), metres."""
-    spacing: Optional[float] = None
+    spacing: OptionalMetres = None
     """σ of the point-on-face index, metres; None = estimate from the data."""
-    noise: Optional[float] = None
+    noise: OptionalMetres = None
     """σ_noise of the points across a surface, metres; None = estimate from the data.
     Point-on-face counts ignore points within 2 σ_noise of a face's edge."""
-    min_wall_area: float = 1.5
+    min_wall_area: SquareMetres = 1.5
     """A vertical histogram peak must hold at least this much surface (points × σ²), m²."""
-    wall_top_band: float = 0.15
+    wall_top_band: Metres = 0.15
     """A wall surface reaches a ceiling: it must have points within this band below a
     ceiling level (furniture stops short of it), metres."""
-    min_wall_top_length: float = 0.5
+    min_wall_top_length: Metres = 0.5
     """...over at least this length along the wall, metres."""
-    extent_percentile: float = 0.5
+    extent_percentile: Percent = 0.5
     """Where no wall bounds the seen ceiling, the grid ends at this percentile (and 100 −
     it) of the ceiling points' coordinates (robust to a few stray points), percent."""
-    min_bound_wall_area: float = 0.2
+    min_bound_wall_area: SquareMetres = 0.2
     """Where the grid would end at a ceiling's seen extent, a vertical surface holding at
     least this much (points × σ², m²) that reaches the ceiling and lies within
     ``max_wall_thickness`` of that extent closes it instead (a far end wall seen only in
     patches between furniture), m²."""
-    min_level_area: float = 2.0
+    min_level_area: SquareMetres = 2.0
     """A floor or ceiling level must hold at least this much surface, m²."""
-    min_storey_height: float = 1.8
+    min_storey_height: Metres = 1.8
     """Floor-to-ceiling distance below which a pair of levels is not a storey, metres."""
-    normal_angle: float = float(np.deg2rad(20.0))
+    normal_angle: Radians = float(np.deg2rad(20.0))
     """θ: a point whose normal is within θ of an axis counts for that axis's histogram."""
-    normal_neighbours: int = 16
+    normal_neighbours: Count = 16
     """k nearest neighbours of the PCA normals (used when the cloud has none)."""
-    min_slab_thickness: float = 0.1
+    min_slab_thickness: Metres = 0.1
     """A z range at least this long with (almost) no points is a slab between storeys, m."""
-    slab_gap_share: float = 0.05
+    slab_gap_share: Ratio = 0.05
     """...where "almost no points" is less than this share of the median z-bin area."""
-    corridor_aspect: float = 3.0
+    corridor_aspect: Factor = 3.0
     """A space whose footprint is this many times longer than wide is named a corridor."""
-    corridor_max_width: float = 2.5
+    corridor_max_width: Metres = 2.5
     """...and is at most this wide, metres."""
-    level_cell: float = 0.25
+    level_cell: Metres = 0.25
     """Cell of the 2D occupancy grid that tells ceilings (nothing above) from desks, metres."""
-    level_exposed: float = 0.5
+    level_exposed: Ratio = 0.5
     """A horizontal level is a ceiling when at least this share of its cells has no
     horizontal surface above it in the storey (a floor: nothing below)."""
 
@@ -122,42 +258,6 @@ class ManhattanParams:
 
     def with_(self, **changes) -> "ManhattanParams":
         return replace(self, **changes)
-
-
-def estimate_spacing(xyz: np.ndarray, sample: int = 20000, radius: float = 0.1, percentile: float = 10.0,
-                     rng=0) -> float:
-    """Surface point spacing σ = 1/sqrt(ρ), ρ a low percentile of the local surface density.
-
-    Parameters
-    ----------
-    xyz : (n, 3) float64 — metres.
-    sample : number of query points (random, ``rng``).
-    radius : neighbourhood radius, metres; ρ = (neighbours) / (π r²).
-    percentile : which percentile of ρ (0–100). A terrestrial scan is much denser near
-        the scanner than on the far walls; taking the sparsest tenth (10) makes σ the
-        spacing of the far surfaces, so that they can still reach τ (IPoF counts one
-        point per σ × σ cell, so a denser patch cannot score above 1).
-
-    Returns σ in metres (0.0 for fewer than two points). This is density-based rather
-    than nearest-neighbour based: for random sampling the nearest-neighbour distance is
-    about half of 1/sqrt(ρ), which would make a fully seen face score ~0.25, not 1.
-    """
-    rng = np.random.default_rng(rng)
-    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
-    if len(xyz) < 2:
-        return 0.0
-    from scipy.spatial import cKDTree
-
-    tree = cKDTree(xyz)
-    q = xyz if len(xyz) <= sample else xyz[rng.choice(len(xyz), sample, replace=False)]
-    r = radius
-    for _ in range(4):  # widen the ball until it holds enough neighbours to count on
-        counts = tree.query_ball_point(q, r=r, return_length=True).astype(np.float64)
-        if np.percentile(counts, percentile) >= 8:
-            break
-        r *= 2
-    rho = np.percentile(np.maximum(counts - 1, 1), percentile) / (np.pi * r**2)
-    return float(1.0 / np.sqrt(rho))
 
 
 def estimate_noise(xyz: np.ndarray, sample: int = 5000, k: int = 20, rng=0) -> float:

@@ -19,8 +19,7 @@ import numpy as np
 
 from .params import ManhattanParams
 
-__all__ = ["Peak", "Level", "StoreyFrame", "histogram_peaks", "detect_levels", "storey_chunks", "storey_frame",
-           "estimate_normals_pca"]
+__all__ = ["Peak", "Level", "StoreyFrame", "histogram_peaks", "detect_levels", "storey_chunks", "storey_frame"]
 
 log = logging.getLogger(__name__)
 
@@ -59,22 +58,6 @@ class StoreyFrame:
     def cuts(self) -> np.ndarray:
         """(k + 1,) float64 — floor then every ceiling level: the z edges of the cuboids."""
         return np.array([self.floor, *self.ceilings], dtype=np.float64)
-
-
-def estimate_normals_pca(xyz: np.ndarray, k: int = 16) -> np.ndarray:
-    """Unoriented PCA normals (open3d k-NN), (n, 3) float64 unit vectors.
-
-    A minimal stand-in used when the cloud has no normals and ``engine.segmentation``
-    is not available.
-    """
-    import open3d as o3d
-
-    pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(xyz, dtype=np.float64)))
-    pc.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=int(k)))
-    n = np.asarray(pc.normals, dtype=np.float64)
-    if len(n) != len(xyz):
-        n = np.zeros((len(xyz), 3))
-    return n
 
 
 def _area_profile(t: np.ndarray, uv: np.ndarray, edges: np.ndarray, spacing: float) -> np.ndarray:

@@ -71,13 +71,14 @@ import logging
 import math
 import time
 from dataclasses import asdict, dataclass
-from typing import Optional, Sequence
+from typing import NamedTuple, Optional, Sequence
 
 import numpy as np
 
 from ..errors import InputError
 from ..model import Scope
 from ..progress import Progress
+from .params import CoverageParams, RjmcmcParams
 from .coverage import CellCoverage, CellSet, _face_band, adaptive_alpha, alpha_area, alpha_geometry, cell_heights, thin_points
 
 __all__ = ["RjmcmcParams", "SearchResult", "SpaceSearch", "search_spaces", "naive_log_posterior",
@@ -89,74 +90,15 @@ MOVES = ("add", "remove", "add_merge", "split_remove")
 """The four transition types, in the order of the trace's counters."""
 
 
-@dataclass(frozen=True)
-class RjmcmcParams:
-    """Parameters of the rjMCMC search (SPEC.md §3.3, thesis Table 6.5 defaults)."""
+class SpaceTerms(NamedTuple):
+    """A space's contributions to the posterior: ceiling coverage of its cells (m²), seen wall
+    faces around it, coverage inside it, its local log ratio, and whether the prior holds."""
 
-    max_wall_thickness: float = 0.3
-    """Prior: a space must be wider than this (smaller side of its scope), metres."""
-    min_space_area: float = 1.0
-    """Prior: ... and have at least this floor area, m² (a WC is about 1.2 m²). Departure
-    from SPEC.md, whose prior has the width alone: a sliver between a slanted wall and the
-    line of another wall, 0.3 m wide and 0.4 m² (syn_house seed 3), scored as a sixth room
-    by a margin of 1e-3 in log P. 0: width alone."""
-    k1: float = 1.0 / 3.0
-    """Weight of the horizontal coverage P_hor in the global likelihood."""
-    k2: float = 1.0 / 3.0
-    """Weight of the vertical coverage P_vert."""
-    k3: float = 1.0 / 3.0
-    """Weight of the plausibility P_plaus (lower it in cluttered scenes)."""
-    mu_same: float = 1.0
-    """μ when M_t and M_{t+1} have the same number of spaces."""
-    mu_fewer_to_more: float = 0.83
-    """μ when M_t has fewer spaces than M_{t+1}."""
-    mu_more_to_fewer: float = 0.9
-    """μ when M_t has more spaces than M_{t+1}."""
-    connected_cover: bool = True
-    """Prior: the covered cells of a space (ceiling coverage ratio ≥ ``cover_ratio``) must
-    be connected through shared faces (see the module doc)."""
-    cover_ratio: float = 0.5
-    """A cell is *covered* when this share of its footprint is under the ceiling's alpha
-    shape."""
-    link_length: float = 0.15
-    """Covered cells of a space must connect through faces at least this long, metres
-    (about half a wall's thickness), that are not seen walls."""
-    beta: float = 0.0
-    """Convergence factor β: accept when α > U, U ~ Uniform[β, 1] (0: plain MH)."""
-    iterations: int = 0
-    """Chain length; 0 picks ``max(min_iterations, iterations_per_cell × cells)``."""
-    iterations_per_cell: int = 60
-    """Automatic chain length per cell."""
-    min_iterations: int = 2000
-    """Smallest automatic chain length."""
-    min_ratio: float = 1e-6
-    """Coverage ratios and P_G are floored at this before the logarithm (a space with no
-    ceiling point is then very unlikely rather than impossible)."""
-    greedy_start: bool = True
-    """Start the chain from a greedy best-improvement ascent from the empty model (see the
-    module doc); False starts from the empty model (or ``initial``) as the thesis does."""
-    polish: bool = True
-    """Greedy best-improvement moves after the chain (see the module doc)."""
-    area_weighted_local: bool = True
-    """``log P_L = Σ_i (|M_i.top| / Cov(hpoints)) · log(Cov(M_i.top)/|M_i.top|)`` instead of
-    the plain product of ratios (see the module doc); False: SPEC.md's product."""
-    absorb_covered: bool = True
-    """After the search, an untyped *covered* cell adjacent to exactly one space joins it
-    (repeated until nothing changes): it lies under that room's ceiling. So does a
-    *walled-in* one (see ``walled_in_ratio``). See the module doc."""
-    walled_in_ratio: float = 0.1
-    """An untyped cell adjacent to exactly one space and walled in otherwise (no way out but
-    through that space, :meth:`SpaceSearch.walled_in`) joins it when at least this share of
-    its footprint is under the ceiling — a sparsely seen corner; a column or a cupboard
-    reaching the ceiling, walled-in too, has no ceiling over it. > 1: off."""
-    trace_every: int = 50
-    """Record (iteration, log-score, spaces) in the trace every this many iterations."""
-
-    def __post_init__(self):
-        if not (0.0 <= self.beta <= 1.0):
-            raise ValueError("beta must lie in [0, 1]")
-        if min(self.k1, self.k2, self.k3) < 0 or abs(self.k1 + self.k2 + self.k3 - 1.0) > 1e-6:
-            raise ValueError("k1, k2, k3 must be non-negative and sum to 1")
+    top: float
+    vert: float
+    inside: float
+    log_ratio: float
+    prior_ok: bool
 
 
 def mdl_cost(n: int) -> float:
@@ -222,15 +164,14 @@ class SpaceSearch:
         self.linkable = self.covered & np.array([bool(x) for x in self.long_nbrs], dtype=bool)
         self.space_of = np.full(n, -1, dtype=np.int64)
         self.spaces: dict[int, frozenset] = {}
-        self.stats: dict[int, tuple] = {}
+        self.stats: dict[int, SpaceTerms] = {}
         self._next = 0
         self.sum_top = self.sum_vert = self.sum_in = self.sum_log = 0.0
         self.n_bad = 0
 
     # ------------------------------------------------------------------ terms
-    def space_terms(self, S: frozenset) -> tuple:
-        """(top, vert, inside, log ratio, prior ok) of a space made of the cells ``S``
-        (cached per cell set)."""
+    def space_terms(self, S: frozenset) -> SpaceTerms:
+        """The terms of a space made of the cells ``S`` (cached per cell set)."""
         hit = self._terms_cache.get(S)
         if hit is not None:
             return hit
@@ -239,7 +180,7 @@ class SpaceSearch:
             self._terms_cache[S] = out
         return out
 
-    def _space_terms(self, S: frozenset) -> tuple:
+    def _space_terms(self, S: frozenset) -> SpaceTerms:
         cov = self.cov
         idx = np.fromiter(S, dtype=np.int64, count=len(S))
         top = float(cov.top[idx].sum())
@@ -261,7 +202,7 @@ class SpaceSearch:
         lg = math.log(ratio)
         if self.params.area_weighted_local:
             lg *= area / self.H
-        return top, vert, inside, lg, ok
+        return SpaceTerms(top, vert, inside, lg, bool(ok))
 
     def _cover_connected(self, S: frozenset) -> bool:
         cov = [c for c in S if self.linkable[c]]
@@ -476,7 +417,7 @@ class SpaceSearch:
                 if not (self.covered[c] or self.walled_in(c, sid)):
                     continue
                 grown = self.spaces[sid] | {c}
-                if self.stats[sid][4] and not self.space_terms(grown)[4]:
+                if self.stats[sid].prior_ok and not self.space_terms(grown).prior_ok:
                     continue
                 self.apply([sid], [grown])
                 added += 1
@@ -608,10 +549,8 @@ def search_spaces(cells: CellSet, coverage: CellCoverage, params: RjmcmcParams =
 
 
 def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wall: np.ndarray,
-                        xyz_horizontal: np.ndarray, params: RjmcmcParams = RjmcmcParams(), *,
-                        shape_buffer: float, r_alpha: float, thin: float,
-                        min_wall_coverage: float = 0.2, wall_band: float = 0.6,
-                        alpha_spacing_factor: float = 7.0, r_alpha_max: float = 0.0) -> float:
+                        xyz_horizontal: np.ndarray, params: RjmcmcParams = RjmcmcParams(),
+                        coverage: CoverageParams = CoverageParams()) -> float:
     """The thesis's full re-score of a model from the points (reference for tests/benchmark).
 
     Every call thins the points, builds the alpha shapes of all ceiling points and of every
@@ -624,9 +563,7 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
     cells : CellSet
     xyz_wall, xyz_horizontal : (n, 3) / (m, 3) float64 — wall and floor/ceiling points, metres.
     params : RjmcmcParams
-    shape_buffer, r_alpha, thin, min_wall_coverage, wall_band, alpha_spacing_factor,
-    r_alpha_max : as for
-        :func:`~.coverage.measure_coverage`.
+    coverage : CoverageParams, as for :func:`~.coverage.measure_coverage`.
 
     Returns
     -------
@@ -634,6 +571,9 @@ def naive_log_posterior(spaces: Sequence[Sequence[int]], cells: CellSet, xyz_wal
     """
     import shapely
 
+    shape_buffer, r_alpha, thin = coverage.shape_buffer, coverage.r_alpha, coverage.coverage_grid
+    min_wall_coverage, wall_band = coverage.min_wall_coverage, coverage.wall_band
+    alpha_spacing_factor, r_alpha_max = coverage.alpha_spacing_factor, coverage.r_alpha_max
     hw = thin_points(np.asarray(xyz_horizontal, float).reshape(-1, 3), thin)
     vw = thin_points(np.asarray(xyz_wall, float).reshape(-1, 3), thin)
     r_alpha = adaptive_alpha(hw[:, :2], r_alpha, alpha_spacing_factor)

@@ -1,4 +1,4 @@
-"""Preprocessing and space partitioning (SPEC.md §1 and §3.1).
+"""Preprocessing steps (docs/method.md §1).
 
 Steps (each takes a frozen parameters dataclass from :mod:`.params` and, where the work is
 long, ``progress``/``should_stop``):
@@ -17,10 +17,9 @@ long, ``progress``/``should_stop``):
 * :func:`classify_points` — wall / floor-ceiling / other by the normal (θ = 10°);
 * :func:`extract_planes` — local RANSAC in 4 m tiles with orientation, normal and fill
   constraints, then global merging until nothing merges;
-* :func:`decompose_cells` — wall segments extended only as far as needed, shapely
-  arrangement, extrusion between ceiling levels → :class:`CellComplex` (cells, shared
-  faces with the wall plane on them and its coverage) for the rjMCMC;
-* :func:`preprocess` — all of the above → :class:`Preprocessed`.
+The one preprocessing stage that runs these in order, for both methods, is
+:func:`engine.pipeline.preprocess`; the cells of the generic method are
+:func:`engine.grammar.generic.storey_cells`.
 
 Departures from SPEC.md (details in each module's docstring): alignment refines the
 k-means directions (vertical from floors *and* walls; yaw from the 4φ circular mean);
@@ -33,26 +32,21 @@ shapes.
 from .alignment import AlignmentResult, align_manhattan, axial_kmeans, manhattan_residual
 from .classify import CLASS_HORIZONTAL, CLASS_OTHER, CLASS_WALL, classify_points
 from .cleaning import clean, drop_nonfinite, estimate_normals, remove_statistical_outliers, voxel_downsample
-from .params import (AlignParams, CellParams, ClassifyParams, CleanParams, NormalParams, PlaneParams,
-                     PreprocessParams, StoreyParams)
+from .params import (AlignParams, ClassifyParams, CleanParams, NormalParams, PlaneParams, PreprocessParams,
+                     StoreyParams)
 from .storeys import Layer, detect_layers, detect_storeys
 from .frame import (UNITS, UP_AXES, FrameParams, UnitGuess, UpGuess, check_degenerate, detect_units,
                     detect_up, normalize_frame, up_rotation)
 from .planes import Plane, extract_planes
-from .cells import (Cell, CellComplex, CellFace, ceiling_levels, decompose_cells, is_structural_wall,
-                    wall_segments)
-from .pipeline import Preprocessed, preprocess
 
 __all__ = [
     "AlignmentResult", "align_manhattan", "axial_kmeans", "manhattan_residual",
     "CLASS_HORIZONTAL", "CLASS_OTHER", "CLASS_WALL", "classify_points",
     "clean", "drop_nonfinite", "estimate_normals", "remove_statistical_outliers", "voxel_downsample",
-    "AlignParams", "CellParams", "ClassifyParams", "CleanParams", "NormalParams", "PlaneParams",
+    "AlignParams", "ClassifyParams", "CleanParams", "NormalParams", "PlaneParams",
     "PreprocessParams", "StoreyParams",
     "Layer", "detect_layers", "detect_storeys",
     "UNITS", "UP_AXES", "FrameParams", "UnitGuess", "UpGuess", "check_degenerate", "detect_units",
     "detect_up", "normalize_frame", "up_rotation",
     "Plane", "extract_planes",
-    "Cell", "CellComplex", "CellFace", "ceiling_levels", "decompose_cells", "is_structural_wall", "wall_segments",
-    "Preprocessed", "preprocess",
 ]

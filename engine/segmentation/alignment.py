@@ -28,6 +28,7 @@ import numpy as np
 from ..errors import ReconstructionError
 from ..pointcloud import PointCloud
 from ..progress import Progress
+from .cleaning import estimate_normals
 from .params import AlignParams, NormalParams
 
 __all__ = ["align_manhattan", "axial_kmeans", "AlignmentResult", "manhattan_residual"]
@@ -188,7 +189,6 @@ def align_manhattan(cloud: PointCloud, params: AlignParams = AlignParams(), *, r
         No vertical structure: fewer than ``params.min_wall_fraction`` of the normals are
         near-horizontal (walls), or no dominant vertical direction.
     """
-    from .cleaning import estimate_normals
 
     rng = np.random.default_rng(rng)
     p = Progress.wrap(progress, should_stop)

@@ -37,6 +37,7 @@ from ..errors import ReconstructionError
 from ..model import Storey
 from ..pointcloud import PointCloud
 from ..progress import Progress
+from .cleaning import estimate_normals
 from .params import NormalParams, StoreyParams
 
 __all__ = ["detect_storeys", "detect_layers", "Layer"]
@@ -212,7 +213,6 @@ def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
     ReconstructionError
         No floor layer with a ceiling layer at least ``min_storey_height`` above it.
     """
-    from .cleaning import estimate_normals
 
     p = Progress.wrap(progress, should_stop)
     p(0.0, "storeys")

@@ -24,7 +24,7 @@ import shapely
 from shapely.geometry import LineString, Point
 from shapely.ops import unary_union
 
-from ..errors import InputError
+from ..errors import InputError, MissingDependencyError
 from ..pointcloud import PointCloud
 from ..progress import Progress
 from .plan import FloorPlan, PlanGeometry, _edge_frame, plan_geometry
@@ -473,8 +473,6 @@ def _make_scene(mesh: SceneMesh):
     try:
         import open3d as o3d
     except ImportError:  # pragma: no cover
-        from ..errors import MissingDependencyError
-
         raise MissingDependencyError("open3d", "the scan simulation") from None
     scene = o3d.t.geometry.RaycastingScene()
     scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)),

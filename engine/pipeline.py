@@ -1,0 +1,243 @@
+"""The one preprocessing stage both reconstruction methods use, and the method choice.
+
+:func:`preprocess` (docs/method.md §1): the working cloud (one point per voxel), normals,
+point clusters (wall / floor-ceiling / other), storeys and RANSAC planes, each once.
+:func:`align` adds the Manhattan alignment (only the Manhattan method and ``indoor
+segment`` need it). :func:`choose_method` decides ``--method auto`` from the planes that
+preprocessing found, so ``auto`` costs nothing beyond the method it picks.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Optional
+
+import numpy as np
+
+from .errors import ReconstructionError
+from .geometry.spacing import estimate_spacing
+from .model import Storey
+from .pointcloud import PointCloud
+from .progress import Progress
+from .quantities import Radians, Ratio
+from .segmentation.alignment import AlignmentResult, align_manhattan
+from .segmentation.classify import CLASS_HORIZONTAL, classify_points
+from .segmentation.cleaning import clean, drop_nonfinite, estimate_normals, voxel_downsample
+from .segmentation.params import PreprocessParams
+from .segmentation.planes import extract_planes
+from .segmentation.storeys import detect_storeys
+
+__all__ = ["ChoiceParams", "Prepared", "preprocess", "align", "manhattan_score", "choose_method",
+           "normal_tilt_spread"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ChoiceParams:
+    """``--method auto``: the Manhattan grammar when the wall planes are Manhattan enough."""
+
+    manhattan_threshold: Ratio = 0.85
+    """Manhattan when :func:`manhattan_score` reaches this share of the wall-plane area."""
+    angle_tolerance: Radians = math.radians(3.0)
+    """A wall plane within this of the best perpendicular pair of directions counts, radians
+    (real walls are not perfectly square; a wall 7° off the axes must not count)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """What :func:`preprocess` produced, in the input frame (metres, z up).
+
+    Attributes
+    ----------
+    cloud : PointCloud — the finite input points.
+    working : PointCloud — one point per voxel, with normals and the fields
+        ``segment_class`` (int8, :mod:`engine.segmentation.classify`) and ``plane`` (int32
+        plane id, -1 for none).
+    working_index : (m,) int64 — index of each working point in ``cloud``.
+    voxel : float — the voxel edge used, metres.
+    spacing : float — point spacing σ of the input's sparsest tenth, metres
+        (:func:`engine.geometry.spacing.estimate_spacing`).
+    labels : (m,) int8 — point clusters of the working cloud.
+    storeys : list of Storey; ``storeys_found`` False when they are the fallback (one
+        storey between the 1st and 99th percentile of the floor/ceiling points).
+    planes : list of Plane (empty when planes were not asked for).
+    transform : (4, 4) float64 aligned → input, or None before :func:`align`.
+    alignment : AlignmentResult or None.
+    timings : dict of str → seconds.
+    """
+
+    cloud: PointCloud
+    working: PointCloud
+    working_index: np.ndarray
+    voxel: float
+    spacing: float
+    labels: np.ndarray
+    storeys: list
+    storeys_found: bool = True
+    planes: list = field(default_factory=list)
+    transform: Optional[np.ndarray] = None
+    alignment: Optional[AlignmentResult] = None
+    timings: dict = field(default_factory=dict)
+    params: PreprocessParams = field(default_factory=PreprocessParams)
+
+    def representative(self) -> np.ndarray:
+        """(n,) int64: for every point of ``cloud``, the index of its working point (its
+        voxel's representative; the nearest working point when outliers were removed)."""
+        kept, voxel_of = None, None
+        if self.voxel > 0:
+            _, kept, voxel_of = voxel_downsample(self.cloud, self.voxel)
+        if kept is not None and np.array_equal(kept, self.working_index):
+            return voxel_of
+        if self.voxel <= 0 and len(self.working_index) == len(self.cloud):
+            return np.arange(len(self.cloud), dtype=np.int64)
+        from scipy.spatial import cKDTree
+
+        _, nn = cKDTree(self.working.xyz).query(self.cloud.xyz, k=1, workers=-1)
+        return nn.astype(np.int64)
+
+    def to_full(self, values: np.ndarray) -> np.ndarray:
+        """Carry a per-working-point array (m, ...) onto every point of ``cloud`` (n, ...)."""
+        values = np.asarray(values)
+        if len(values) != len(self.working):
+            raise ValueError(f"expected {len(self.working)} values (one per working point), got {len(values)}")
+        return values[self.representative()]
+
+
+def normal_tilt_spread(normals: np.ndarray) -> float:
+    """Median tilt from horizontal of the near-vertical-surface normals (|n_z| < sin 30°),
+    radians: how noisy wall normals are (0 when there are none)."""
+    nz = np.abs(np.asarray(normals, dtype=np.float64).reshape(-1, 3)[:, 2])
+    wall = nz < 0.5
+    return float(np.arcsin(np.median(nz[wall]))) if wall.any() else 0.0
+
+
+def _cluster_params(work: PointCloud, params: PreprocessParams):
+    """The point-cluster parameters with θ raised for noisy normals (``theta_spread_factor``)."""
+    base = params.classify
+    if params.theta_spread_factor <= 0:
+        return base
+    theta = min(max(base.angle_tolerance, params.theta_spread_factor * normal_tilt_spread(work.normals)),
+                max(params.max_theta, base.angle_tolerance))
+    if theta > base.angle_tolerance:
+        log.info("noisy normals: point clusters with θ = %.1f°", math.degrees(theta))
+    return replace(base, angle_tolerance=theta)
+
+
+def _storeys_of(cloud: PointCloud, labels: np.ndarray, params: PreprocessParams) -> tuple[list, bool]:
+    """Storeys of the working cloud, or one storey over the floor/ceiling points (False)."""
+    try:
+        return list(detect_storeys(cloud, params.storeys)), True
+    except ReconstructionError as e:
+        z = cloud.xyz[labels == CLASS_HORIZONTAL, 2]
+        if len(z) < 10:
+            raise ReconstructionError(f"no storey found ({e}) and too few floor/ceiling points",
+                                      cloud.source or None) from None
+        lo, hi = np.percentile(z, [1, 99])
+        log.warning("storey detection failed (%s); one storey from %.2f to %.2f m", e, lo, hi)
+        return [Storey(0, float(lo), float(hi), "Storey 0", float(lo))], False
+
+
+def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(), *, rng=0,
+               planes: bool = True, progress=None, should_stop=None) -> Prepared:
+    """Working cloud, normals, point clusters, storeys and (``planes``) RANSAC planes.
+
+    Parameters
+    ----------
+    cloud : PointCloud — metres, z up (see :func:`engine.segmentation.frame.normalize_frame`).
+    params : PreprocessParams
+    rng : seed or numpy Generator — RANSAC draws from it (a Generator is advanced).
+    planes : bool — extract planes (the generic method and ``auto`` need them).
+
+    Raises
+    ------
+    EmptyCloudError
+        Fewer usable points than ``params.clean.min_points``.
+    ReconstructionError
+        No storey and too few floor/ceiling points, or no plane at all.
+    """
+    rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    p = Progress.wrap(progress, should_stop)
+    t = {}
+    t0 = time.perf_counter()
+    p(0.0, "working cloud")
+    full = drop_nonfinite(cloud)
+    work, index, voxel = clean(full, params.clean)
+    t["working_cloud"] = time.perf_counter() - t0
+    p.check()
+    t1 = time.perf_counter()
+    spacing = estimate_spacing(full.xyz)
+    if work.normals is None:
+        p(0.05, "normals")
+        npar = params.normals
+        work = estimate_normals(work, replace(npar, radius=max(npar.radius, npar.radius_voxels * voxel)))
+    t["normals"] = time.perf_counter() - t1
+    p.check()
+    t1 = time.perf_counter()
+    labels = classify_points(work, _cluster_params(work, params))
+    storeys, found = _storeys_of(work, labels, params)
+    t["storeys"] = time.perf_counter() - t1
+    found_planes = []
+    plane_of = np.full(len(work), -1, np.int32)
+    if planes:
+        t1 = time.perf_counter()
+        p(0.2, "planes")
+        found_planes = extract_planes(work, params.planes, labels=labels, storeys=storeys, rng=rng,
+                                      progress=p.sub(0.2, 1.0), should_stop=should_stop)
+        for pl in found_planes:
+            plane_of[pl.support] = pl.id
+        t["planes"] = time.perf_counter() - t1
+    work = work.with_(fields={**work.fields, "segment_class": labels, "plane": plane_of})
+    log.info("preprocess %s: %d -> %d working points, %d storeys, %d planes (%s)", cloud.source or "cloud",
+             len(cloud), len(work), len(storeys), len(found_planes), {k: round(v, 2) for k, v in t.items()})
+    return Prepared(cloud=full, working=work, working_index=index, voxel=voxel, spacing=spacing, labels=labels,
+                    storeys=storeys, storeys_found=found, planes=found_planes, timings=t, params=params)
+
+
+def align(prep: Prepared, *, rng=0, cloud: Optional[PointCloud] = None) -> Prepared:
+    """``prep`` with the Manhattan alignment (transform aligned → input) from the normals of
+    ``cloud`` (default: every input point with its working point's normal), which becomes
+    ``prep.cloud``."""
+    if prep.transform is not None:
+        return prep
+    t0 = time.perf_counter()
+    full = prep.cloud if cloud is None else cloud
+    if full.normals is None:
+        full = full.with_(normals=prep.to_full(prep.working.normals))
+    _, transform, res = align_manhattan(full, prep.params.align, rng=rng, normal_params=prep.params.normals,
+                                        return_result=True)
+    return replace(prep, cloud=full, transform=transform, alignment=res,
+                   timings={**prep.timings, "align": time.perf_counter() - t0})
+
+
+def manhattan_score(planes, angle_tolerance: float = ChoiceParams.angle_tolerance) -> float:
+    """Share of wall-plane area (weighted by covered area) within ``angle_tolerance`` of the
+    best pair of perpendicular horizontal directions; 0 without wall planes.
+
+    Directions are folded modulo 90°; the pair's direction is the peak of a 0.5° histogram
+    smoothed circularly over the tolerance.
+    """
+    walls = [p for p in planes if p.kind == "wall"]
+    if not walls:
+        return 0.0
+    phi = np.array([math.atan2(p.normal[1], p.normal[0]) for p in walls]) % (math.pi / 2)
+    w = np.array([max(p.area, 0.0) for p in walls])
+    if w.sum() <= 0:
+        return 0.0
+    bins = 180
+    h = np.bincount(np.floor(phi / (math.pi / 2) * bins).astype(int) % bins, weights=w, minlength=bins)
+    k = max(1, int(round(angle_tolerance / (math.pi / 2) * bins)))
+    smooth = sum(np.roll(h, j) for j in range(-k, k + 1))
+    peak = (np.argmax(smooth) + 0.5) * (math.pi / 2) / bins
+    dev = np.abs((phi - peak + math.pi / 4) % (math.pi / 2) - math.pi / 4)
+    return float(w[dev <= angle_tolerance].sum() / w.sum())
+
+
+def choose_method(prep: Prepared, params: ChoiceParams = ChoiceParams()) -> tuple[str, float]:
+    """("manhattan" or "generic", score) for ``--method auto`` from ``prep.planes``."""
+    score = manhattan_score(prep.planes, params.angle_tolerance)
+    method = "manhattan" if score >= params.manhattan_threshold else "generic"
+    log.info("auto method: Manhattan score %.2f (threshold %.2f) -> %s", score, params.manhattan_threshold, method)
+    return method, score
