@@ -36,7 +36,7 @@ TARGET_SECONDS = 20.0
 _CLI = r"""
 import argparse, json, sys, time
 t0 = time.perf_counter()
-from engine.synthetic.cli import add_synth
+from engine.cli.synth import add_synth
 p = argparse.ArgumentParser(); sub = p.add_subparsers(); add_synth(sub)
 a = p.parse_args(sys.argv[1:]); a.quiet = True; a.json = True
 import io, contextlib

@@ -1,6 +1,7 @@
 """Batch conversion inside Blender: scans → IFC + JSON (as ``indoor convert``) + .blend + PNG each.
 
     blender -b -P scripts/batch.py -- SCAN [SCAN ...] --out DIR [--method auto] [--seed 0]
+                                      [--params FILE.toml] [--set stage.key=value ...]
     .venv/bin/python scripts/batch.py SCAN [SCAN ...] --out DIR         # with the bpy module
 
 For each scan: ``engine.reconstruct.convert_file`` writes ``DIR/<name>.ifc`` and
@@ -9,7 +10,8 @@ scene, the bridge adds the model (collections Spaces, Walls, ..., hidden Cells),
 ``DIR/<name>.blend``; then a preview ``DIR/<name>.png`` is rendered (Workbench by default,
 headless; the demo's render: a top view cut below the ceiling and an oblique view). A bad
 file is reported on one line (any error: an engine error or a bug, ``--debug`` for the
-traceback) and the batch goes on; ``DIR/batch.json`` maps each input to its outputs and lists
+traceback) and the batch goes on; ``--params``/``--set`` choose the reconstruction parameters
+as for ``indoor convert`` (a bad file or key is a usage error); ``DIR/batch.json`` maps each input to its outputs and lists
 the failures with their kind. Inputs that share a name get ``<name>_2``, ... The output folder
 is checked before any work. Exit code: 0 all done, 1 some failed, 2 usage, 130 interrupted
 (Ctrl-C or SIGTERM; the files finished before it stay intact).
@@ -59,6 +61,10 @@ def parse_args(argv):
                    help="units of the scans (auto: detected, rescaled to metres)")
     p.add_argument("--up", default="auto", choices=("auto", "z", "-z", "y", "-y", "x", "-x"),
                    help="up axis of the scans (auto: detected and rotated to z up)")
+    p.add_argument("--params", default=None, metavar="FILE",
+                   help="TOML parameter file (as written by `indoor params --toml`)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="settings",
+                   help="set one parameter, e.g. generic.cells.min_wall_area=0.7 (after --params; repeatable)")
     p.add_argument("--debug", action="store_true", help="print the traceback of any error")
     p.add_argument("--no-ifc", action="store_true", help="skip the IFC file")
     p.add_argument("--engine", choices=("workbench", "cycles"), default="workbench", help="preview renderer")
@@ -69,16 +75,18 @@ def parse_args(argv):
     return p.parse_args(argv)
 
 
-def convert_one(pkg, scan, args, name):
+def convert_one(pkg, scan, args, name, params=None):
     """IFC + JSON through the engine, then the .blend with the scan's point mesh and the model;
-    every output is named ``<name>.*`` (distinct per input, see ``engine.jobs.output_stems``)."""
+    every output is named ``<name>.*`` (distinct per input, see ``engine.jobs.output_stems``);
+    ``params`` is the engine's ``Params`` (None: the defaults)."""
     import bpy
 
     reconstruct = importlib.import_module(PACKAGE + ".engine.reconstruct")
     atomic_path = pkg.engine.fileutil.atomic_path
     t0 = time.perf_counter()
     result = reconstruct.convert_file(scan, args.out, method=args.method, seed=args.seed, name=name,
-                                      units=args.units, up=args.up, write_ifc=not args.no_ifc)
+                                      units=args.units, up=args.up, write_ifc=not args.no_ifc,
+                                      params=params)
     t1 = time.perf_counter()
     bpy.ops.wm.read_homefile(app_template="", use_factory_startup=True)
     for obj in list(bpy.data.objects):
@@ -131,6 +139,13 @@ def main(argv=None):
     if args.seed < 0:
         log.error("error: input error: --seed must be a whole number >= 0, not %d", args.seed)
         return jobs.EXIT_USAGE
+    params_mod = importlib.import_module(PACKAGE + ".engine.params")
+    try:
+        params = params_mod.load_params(args.params) if args.params else params_mod.Params()
+        params = params_mod.with_settings(params, args.settings)
+    except errors.InputError as e:  # a bad parameter file or key: usage, before any work
+        log.error("error: %s", errors.error_line(e))
+        return jobs.EXIT_USAGE
     try:
         jobs.check_output_dir(args.out)  # before any work
     except errors.IndoorError as e:
@@ -148,7 +163,7 @@ def main(argv=None):
     try:
         with jobs.terminate_as_interrupt():
             for scan, name in zip(args.scans, names):
-                result, failure = jobs.guarded(scan, lambda s=scan, n=name: convert_one(pkg, s, args, n),
+                result, failure = jobs.guarded(scan, lambda s=scan, n=name: convert_one(pkg, s, args, n, params),
                                                debug=args.debug, on_failure=report)
                 if failure is None:
                     done.append(result)

@@ -24,7 +24,7 @@ from engine.change import (
     registration_quality,
     write_change_outputs,
 )
-from engine.change.cli import read_matrix
+from engine.cli.changes import read_matrix
 from engine.errors import FormatError, InputError
 
 synthetic = pytest.importorskip("engine.synthetic")

@@ -13,7 +13,7 @@ def test_help_lists_every_command(capsys):
         main(["--help"])
     assert e.value.code == 0
     out = capsys.readouterr().out
-    for cmd in ("info", "convert", "evaluate", "changes", "synth", "segment"):
+    for cmd in ("info", "convert", "evaluate", "changes", "synth", "segment", "params"):
         assert cmd in out
 
 
@@ -66,3 +66,39 @@ def test_convert_missing_file_exit_code(tmp_path, capsys):
     assert code == 1
     assert "nope.ply" in capsys.readouterr().err
     assert not (tmp_path / "o" / "nope.json").exists()
+
+
+def test_segment_writes_ply_and_json_and_names_the_bad_file(tmp_path, capsys):
+    from engine.io import read_point_cloud
+
+    data = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+    out = tmp_path / "seg"
+    code = main(["segment", os.path.join(data, "room_scan1.pcd"), str(tmp_path / "missing.ply"), "-o", str(out),
+                 "--set", "generic.cells.min_wall_area=0.7", "--quiet"])
+    assert code == 1  # the missing file fails, the scan is still written
+    assert "missing.ply" in capsys.readouterr().err
+    rep = json.loads((out / "room_scan1_segmentation.json").read_text())
+    assert {"points", "working_points", "transform_aligned_to_input", "alignment", "storeys", "planes",
+            "timings_s", "cells", "source"} <= set(rep)
+    assert len(rep["storeys"]) == 1 and any(p["kind"] == "wall" for p in rep["planes"])
+    assert [c["storey"] for c in rep["cells"]] == [s["index"] for s in rep["storeys"]]
+    cells = rep["cells"][0]["cells"]
+    assert cells and all(c["area"] > 0 and c["z1"] > c["z0"] and len(c["polygon"]) >= 3 for c in cells)
+    assert len(rep["transform_aligned_to_input"]) == 4
+    back = read_point_cloud(str(out / "room_scan1_segmented.ply"))
+    assert len(back) == rep["working_points"]
+    assert set(back.fields) >= {"segment_class", "plane"}
+
+
+def test_segment_voxel_and_bad_key(tmp_path, capsys):
+    data = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+    scan = os.path.join(data, "room_scan1.pcd")
+    assert main(["segment", scan, "-o", str(tmp_path / "a"), "--set", "preprocess.nope=1"]) == 2
+    assert "preprocess.nope" in capsys.readouterr().err
+    working = []
+    for voxel in ("0.03", "0.06"):
+        assert main(["segment", scan, "-o", str(tmp_path / voxel), "--voxel", voxel, "--json"]) == 0
+        done = json.loads(capsys.readouterr().out)["segmented"]
+        assert [d["file"] for d in done] == [scan] and done[0]["cells"] >= 1
+        working.append(json.loads(open(done[0]["json"]).read())["working_points"])
+    assert working[1] < working[0]  # --voxel sets the working cloud's voxel

@@ -1,5 +1,5 @@
-"""``indoor evaluate`` and ``indoor changes`` through their own argparse (engine.evaluation.cli,
-engine.change.cli), on hand-built models and scans written to disk."""
+"""``indoor evaluate`` and ``indoor changes`` through their own argparse (engine.cli.evaluate,
+engine.cli.changes), on hand-built models and scans written to disk."""
 import argparse
 import json
 import os
@@ -7,9 +7,9 @@ import os
 import numpy as np
 import pytest
 
-from engine.change.cli import add_changes, read_matrix
+from engine.cli.changes import add_changes, read_matrix
+from engine.cli.evaluate import add_evaluate
 from engine.errors import FormatError, IndoorError, InputError
-from engine.evaluation.cli import add_evaluate
 from test_change_detection import changed_scan, old_model
 from test_evaluation import CORRIDOR, REF, ROOM, _grow, _model
 

@@ -12,8 +12,8 @@ import pytest
 from shapely.geometry import Polygon
 from shapely.ops import unary_union
 
-from engine.errors import InputError
-from engine.model import ShapeType
+from engine.errors import Cancelled, InputError
+from engine.model import BuildingModel, ShapeType
 from engine.synthetic import (
     LABEL_CEILING,
     LABEL_CLUTTER,
@@ -24,12 +24,14 @@ from engine.synthetic import (
     FloorPlan,
     PlanStorey,
     Room,
+    build_scene_mesh,
     build_truth,
     plan_geometry,
     preset,
     preset_plans,
 )
 from engine.synthetic.scan import ScanParams, scanner_positions, simulate_scan
+from engine.topology import space_graph
 
 SMALL = 120_000
 
@@ -97,8 +99,6 @@ def test_truth_is_consistent(name):
                 np.sort(np.linalg.norm(np.diff(d.footprint(), axis=0, append=d.footprint()[:1]), axis=1))[-1])
         # the scanned surfaces: every wall face lies on a wall piece, every interior wall
         # piece shows faces to both of its rooms
-        from engine.synthetic import build_scene_mesh
-
         g = plan_geometry(plan)
         mesh = build_scene_mesh(plan, g)
         wall_tris = mesh.labels == LABEL_WALL
@@ -116,7 +116,7 @@ def test_truth_is_consistent(name):
                 assert length < plan.exterior_thickness + 1e-6, (name, key, k, extra, length)
         # every room can be reached from every other room of its storey (doors or not)
         for s in range(len(m.storeys)):
-            g = m.graph("connectivity").subgraph([x.id for x in m.spaces if x.storey == s])
+            g = space_graph(m, "connectivity").subgraph([x.id for x in m.spaces if x.storey == s])
             import networkx as nx
 
             assert nx.is_connected(g), (name, key)
@@ -429,7 +429,7 @@ def _mini_write_ply(path, cloud, *, binary=True, dtype="f8"):  # only if engine.
 
 def test_cli_synth_writes_scan_truth_variants_and_png(tmp_path, monkeypatch):
     import engine.io
-    from engine.synthetic.cli import add_synth
+    from engine.cli.synth import add_synth
 
     if not hasattr(engine.io, "write_ply"):
         monkeypatch.setattr(engine.io, "write_ply", _mini_write_ply, raising=False)
@@ -443,8 +443,6 @@ def test_cli_synth_writes_scan_truth_variants_and_png(tmp_path, monkeypatch):
     for f in ("eval_demo.ply", "eval_demo_truth.json", "eval_demo_inacc.json", "eval_demo_incomp.json",
               "eval_demo_incorr.json", "eval_demo_top.png", "eval_demo_truth.ifc", "eval_demo_incorr.ifc"):
         assert os.path.getsize(tmp_path / f) > 0
-    from engine.model import BuildingModel
-
     m = BuildingModel.from_json(tmp_path / "eval_demo_truth.json")
     assert len(m.spaces) == 2
     with open(tmp_path / "eval_demo_top.png", "rb") as f:
@@ -474,8 +472,6 @@ def test_cli_synth_writes_scan_truth_variants_and_png(tmp_path, monkeypatch):
 
 
 def test_progress_and_cancel():
-    from engine.errors import Cancelled
-
     seen = []
     preset("eval_demo", seed=0, target_points=5000, progress=lambda f, m: seen.append(f))
     assert seen[-1] == 1.0 and all(b >= a for a, b in zip(seen, seen[1:])) and len(seen) >= 3

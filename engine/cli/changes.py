@@ -1,25 +1,27 @@
 """``indoor changes MODEL SCAN -o DIR``: change detection between a model and a newer scan.
 
-Wire into ``engine/cli.py`` with ``add_changes(sub)``; ``cmd_changes(args)`` returns the exit
-code: 0, or 1 when the scan could not be registered to the model (the outputs are written all
-the same, marked "unregistered" and claiming no change unless ``--force``). Bad input raises
-:class:`~engine.errors.IndoorError`.
+``cmd_changes(args)`` returns the exit code: 0, or 1 when the scan could not be registered to
+the model (the outputs are written all the same, marked "unregistered" and claiming no change
+unless ``--force``). Bad input raises :class:`~engine.errors.IndoorError`.
 """
 from __future__ import annotations
 
 import json
-import logging
 import math
 import os
 import sys
+from dataclasses import replace
 
 import numpy as np
 
+from .. import io as scan_io
+from ..change.detect import ChangeParams, detect_changes
+from ..change.report import write_change_outputs
 from ..errors import FormatError, InputError
+from ..evaluation.loading import load_model
+from .console import ConsoleProgress
 
 __all__ = ["add_changes", "cmd_changes", "read_matrix"]
-
-log = logging.getLogger(__name__)
 
 
 RIGID_TOLERANCE = 1e-3
@@ -134,13 +136,6 @@ def _registration_line(reg: dict) -> str:
 
 def cmd_changes(args) -> int:
     """Run ``indoor changes``; returns 0 on success, 1 when the scan is unregistered."""
-    from dataclasses import replace
-
-    from ..evaluation.loading import load_model
-    from ..io import read_point_cloud
-    from .detect import ChangeParams, detect_changes
-    from .report import write_change_outputs
-
     quiet = getattr(args, "quiet", False) or getattr(args, "json", False)
     force = bool(getattr(args, "force", False))
     params = ChangeParams()
@@ -159,13 +154,8 @@ def cmd_changes(args) -> int:
     params = replace(params, **kw)
     initial = read_matrix(args.initial) if args.initial else None
     model = load_model(args.model)
-    try:
-        from ..cli import ConsoleProgress
-
-        bar = ConsoleProgress("changes", quiet=quiet)
-    except ImportError:  # pragma: no cover
-        bar = None
-    cloud = read_point_cloud(args.scan, progress=bar.__call__ if bar is not None else None)
+    bar = ConsoleProgress("changes", quiet=quiet)
+    cloud = scan_io.read_point_cloud(args.scan, progress=bar)
     if initial is not None:
         # the given transform maps file coordinates; the cloud's offset was removed on reading
         shift = np.eye(4)
@@ -174,8 +164,7 @@ def cmd_changes(args) -> int:
     try:
         res = detect_changes(model, cloud, params, initial=initial, progress=bar)
     finally:
-        if bar is not None:
-            bar.close()
+        bar.close()
     paths = write_change_outputs(res, cloud, args.out,
                                  extra={"model": os.fspath(args.model), "scan": os.fspath(args.scan)})
     s = res.summary()

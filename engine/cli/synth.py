@@ -1,9 +1,10 @@
 """``indoor synth PRESET -o DIR [--seed N] [--noise tls|mobile|SIGMA] [--points N]``.
 
-PRESET is a preset name or a floor-plan JSON file. Writes ``DIR/<preset>.ply`` (the simulated scan with per-point ``label``, ``scan_index``
-and, for change_demo, ``new``), ``DIR/<preset>_truth.json`` and ``.ifc`` (the true model),
-``DIR/<preset>_<variant>.json`` and ``.ifc`` for each variant, ``DIR/<preset>_plan.json``
-(the furnished floor plan, readable back as PRESET) and ``DIR/<preset>_top.png`` (a top view).
+PRESET is a preset name or a floor-plan JSON file. Writes ``DIR/<preset>.ply`` (the simulated
+scan with per-point ``label``, ``scan_index`` and, for change_demo, ``new``),
+``DIR/<preset>_truth.json`` and ``.ifc`` (the true model), ``DIR/<preset>_<variant>.json`` and
+``.ifc`` for each variant, ``DIR/<preset>_plan.json`` (the furnished floor plan, readable back
+as PRESET) and ``DIR/<preset>_top.png`` (a top view).
 """
 from __future__ import annotations
 
@@ -11,12 +12,16 @@ import logging
 import os
 import time
 
-from .plan import FloorPlan
-from .presets import DEFAULT_POINTS, PRESETS, preset, scene_from_plans
+from .. import io as scan_io
+from ..errors import MissingDependencyError
+from ..ifc import write_ifc
+from ..jobs import seed_argument
+from ..synthetic.plan import FloorPlan
+from ..synthetic.presets import DEFAULT_POINTS, PRESETS, preset, scene_from_plans
+from ..synthetic.render import top_view_png
+from .console import ConsoleProgress, emit
 
 __all__ = ["add_synth", "cmd_synth", "write_scene"]
-
-from ..jobs import seed_argument
 
 log = logging.getLogger(__name__)
 
@@ -46,14 +51,12 @@ def write_scene(scene, out_dir, *, png: bool = True, ifc: bool = True) -> dict:
     (+ ``.ifc``) and ``<name>_top.png``. The IFC files are skipped, with a warning, when
     ifcopenshell is missing.
     """
-    from ..io import write_ply
-
     os.makedirs(out_dir, exist_ok=True)
     name = scene.name
     files = {}
     t0 = time.perf_counter()
     files["scan"] = os.path.join(out_dir, f"{name}.ply")
-    write_ply(files["scan"], scene.cloud)
+    scan_io.write_ply(files["scan"], scene.cloud)
     t_ply = time.perf_counter() - t0
     files["truth"] = os.path.join(out_dir, f"{name}_truth.json")
     scene.truth.to_json(files["truth"])
@@ -64,12 +67,8 @@ def write_scene(scene, out_dir, *, png: bool = True, ifc: bool = True) -> dict:
         m.to_json(files[k])
     t_ifc = 0.0
     if ifc:
-        from ..errors import MissingDependencyError
-
         t0 = time.perf_counter()
         try:
-            from ..ifc import write_ifc
-
             files["truth_ifc"] = write_ifc(scene.truth, os.path.join(out_dir, f"{name}_truth.ifc"))
             for k, m in scene.variants.items():
                 files[f"{k}_ifc"] = write_ifc(m, os.path.join(out_dir, f"{name}_{k}.ifc"))
@@ -78,8 +77,6 @@ def write_scene(scene, out_dir, *, png: bool = True, ifc: bool = True) -> dict:
         t_ifc = time.perf_counter() - t0
     t_png = 0.0
     if png:
-        from .render import top_view_png
-
         t0 = time.perf_counter()
         files["top"] = os.path.join(out_dir, f"{name}_top.png")
         top_view_png(files["top"], scene.cloud, scene.truth,
@@ -91,8 +88,6 @@ def write_scene(scene, out_dir, *, png: bool = True, ifc: bool = True) -> dict:
 
 def cmd_synth(args) -> int:
     """Run ``indoor synth``; returns the exit code."""
-    from ..cli import ConsoleProgress, _emit
-
     bar = ConsoleProgress(f"synth {args.preset}", quiet=getattr(args, "quiet", False) or getattr(args, "json", False))
     t0 = time.perf_counter()
     try:
@@ -127,5 +122,5 @@ def cmd_synth(args) -> int:
     lines = [f"{scene.name}: {len(scene.cloud):,} points from {scene.cloud.scan_count} scanner positions "
              f"(σ = {scene.noise_sigma * 1000:.0f} mm) in {total:.1f} s"]
     lines += [f"  {k:8s} {v}" for k, v in written["files"].items()]
-    _emit(args, payload, lines)
+    emit(args, payload, lines)
     return 0

@@ -1,20 +1,24 @@
 """``indoor evaluate SOURCE REFERENCE -o DIR``: quality of a model against a reference.
 
-Wire into ``engine/cli.py`` with ``add_evaluate(sub)``; ``cmd_evaluate(args)`` returns the
-exit code. Bad input raises :class:`~engine.errors.IndoorError` (the CLI prints it on one line).
+``cmd_evaluate(args)`` returns the exit code. Bad input raises
+:class:`~engine.errors.IndoorError` (the CLI prints it on one line).
 """
 from __future__ import annotations
 
-import logging
+import json
 import os
 
 import numpy as np
 
+from .. import io as scan_io
 from ..errors import InputError
+from ..evaluation.loading import load_model
+from ..evaluation.metrics import DEFAULT_BUFFERS, EvaluationParams, evaluate
+from ..evaluation.report import write_evaluation_outputs
+from ..evaluation.visibility import VisibilityParams, annotate_visibility
+from .console import ConsoleProgress
 
 __all__ = ["add_evaluate", "cmd_evaluate"]
-
-log = logging.getLogger(__name__)
 
 
 def _floats(text: str) -> tuple:
@@ -47,18 +51,8 @@ def add_evaluate(sub) -> None:
 
 def cmd_evaluate(args) -> int:
     """Run ``indoor evaluate``; returns 0 on success."""
-    from .loading import load_model
-    from .metrics import DEFAULT_BUFFERS, EvaluationParams, evaluate
-    from .report import write_evaluation_outputs
-    from .visibility import VisibilityParams, annotate_visibility
-
     quiet = getattr(args, "quiet", False) or getattr(args, "json", False)
-    try:
-        from ..cli import ConsoleProgress
-
-        bar = ConsoleProgress("evaluate", quiet=quiet)
-    except ImportError:  # pragma: no cover
-        bar = None
+    bar = ConsoleProgress("evaluate", quiet=quiet)
     types = tuple(t.strip().lower() for t in args.surfaces.split(",") if t.strip())
     groups = tuple(g.strip().lower() for g in args.groups.split(",") if g.strip())
     bad = [g for g in groups if g not in ("wall", "floor", "ceiling")]
@@ -74,14 +68,11 @@ def cmd_evaluate(args) -> int:
     reference = load_model(args.reference)
     visible = None
     if args.scan:
-        from ..io import read_point_cloud
-
-        cloud = read_point_cloud(args.scan)
+        cloud = scan_io.read_point_cloud(args.scan)
         ann = annotate_visibility(reference, cloud, VisibilityParams(surface_types=types))
         visible = {k: v["visible"] for k, v in ann.items()}
     res = evaluate(source, reference, params, visible=visible, progress=bar)
-    if bar is not None:
-        bar.close()
+    bar.close()
     title = f"{os.path.basename(args.source)} vs {os.path.basename(args.reference)}"
     paths = write_evaluation_outputs(res, args.out, title=title,
                                      extra={"source": os.fspath(args.source), "reference": os.fspath(args.reference)})
@@ -99,8 +90,6 @@ def cmd_evaluate(args) -> int:
     lines.append(f"missing reference surfaces: {len(res.missing)}; redundant source surfaces: {len(res.redundant)}")
     lines.append(f"written to {args.out}")
     if getattr(args, "json", False):
-        import json
-
         print(json.dumps(payload, indent=2))
     elif not getattr(args, "quiet", False):
         print("\n".join(lines))
