@@ -33,11 +33,7 @@ def unregister():
     global _registered
     if not _registered:
         return
-    job = operators.ReconstructJob.current
-    if job is not None and job.running:  # a modal reconstruction: stop its worker thread
-        job.cancel()
-        job.join(timeout=10.0)
-    operators.ReconstructJob.current = None
+    operators.stop_running_job(timeout=10.0)  # a modal reconstruction: stop its worker thread
     bpy.types.TOPBAR_MT_file_import.remove(operators.menu_import)
     bpy.types.TOPBAR_MT_file_export.remove(operators.menu_export)
     if hasattr(bpy.types.Scene, "indoor"):

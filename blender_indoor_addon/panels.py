@@ -2,10 +2,11 @@
 from __future__ import annotations
 
 import json
+import os
 
 import bpy
 
-from . import bridge, operators
+from . import bridge, operators, props
 
 
 def _model_stored(layout) -> bool:
@@ -85,14 +86,19 @@ class INDOOR_PT_reconstruct(_IndoorPanel, bpy.types.Panel):
         if settings is not None:
             layout.prop(settings, "method")
             layout.prop(settings, "reconstruct_seed")
+            row = layout.row(align=True)
+            row.operator("indoor.load_parameters", icon="FILE_FOLDER")
+            row.operator("indoor.save_parameters", icon="FILE_TICK")
+            if settings.params_toml:
+                layout.label(text=f"Parameters: {os.path.basename(settings.params_file) or 'loaded'}",
+                             icon="PRESET")
             layout.prop(settings, "use_custom_params")
             if settings.use_custom_params:
                 col = layout.column(align=True)
-                col.prop(settings, "min_wall_area")
-                if settings.method != "generic":
-                    col.prop(settings, "max_wall_thickness")
-                if settings.method != "manhattan":
-                    col.prop(settings, "working_voxel")
+                for prop, _key, _label, _unit in props.ENGINE_PARAMS:
+                    method = props.PARAM_METHOD.get(prop)
+                    if method is None or settings.method in ("auto", method):
+                        col.prop(settings, prop)
         if settings is not None and settings.running:
             row = layout.row(align=True)
             if hasattr(row, "progress"):  # 4.0+
@@ -102,12 +108,7 @@ class INDOOR_PT_reconstruct(_IndoorPanel, bpy.types.Panel):
                 row.label(text=f"{settings.progress_text} {100 * settings.progress:.0f}%")
             row.operator("indoor.cancel_reconstruct", text="", icon="CANCEL")
         else:
-            op = layout.operator("indoor.reconstruct", icon="MOD_BUILD")
-            if settings is not None:
-                op.method = settings.method
-                op.seed = settings.reconstruct_seed
-                for key in ("use_custom_params", "min_wall_area", "max_wall_thickness", "working_voxel"):
-                    setattr(op, key, getattr(settings, key))
+            layout.operator("indoor.reconstruct", icon="MOD_BUILD")  # it takes the settings above
         if not bridge.is_point_mesh(context.active_object):
             layout.label(text="Select an imported scan", icon="INFO")
         top = context.scene.collection.children.get(bridge.MODEL_COLLECTION)

@@ -4,6 +4,9 @@ from __future__ import annotations
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
+from ..engine.params import Params, params_table
+from . import bridge
+
 METHOD_ITEMS = (
     ("auto", "Auto", "Manhattan grammar when the walls are mostly orthogonal, else generic"),
     ("manhattan", "Manhattan", "Shape grammar for orthogonal walls (SPEC.md §2)"),
@@ -44,15 +47,47 @@ CHANGE_COLOR_ITEMS = (
 )
 """How a scan shows its change-detection result."""
 
+ENGINE_PARAMS = (
+    ("min_wall_area_manhattan", "manhattan.min_wall_area", "Min wall area (Manhattan)", "AREA"),
+    ("min_wall_area_generic", "generic.cells.min_wall_area", "Min wall area (generic)", "AREA"),
+    ("max_wall_thickness_manhattan", "manhattan.max_wall_thickness", "Max wall thickness (Manhattan)",
+     "LENGTH"),
+    ("max_wall_thickness_generic", "generic.search.max_wall_thickness", "Max wall thickness (generic)",
+     "LENGTH"),
+    ("working_voxel", "preprocess.clean.voxel_size", "Working voxel", "LENGTH"),
+)
+"""``(property, engine key, label, unit)`` of the parameters the add-on shows: each is the
+engine's :class:`~engine.params.Params` key of that name (its default, its doc); the
+``_manhattan`` / ``_generic`` ones apply to that method only."""
+PARAM_METHOD = {"min_wall_area_manhattan": "manhattan", "min_wall_area_generic": "generic",
+                "max_wall_thickness_manhattan": "manhattan", "max_wall_thickness_generic": "generic"}
+"""The method a shown parameter belongs to (the others apply to both)."""
+
 __all__ = ["INDOOR_PG_settings", "CLASSES", "METHOD_ITEMS", "UNITS_ITEMS", "UP_ITEMS", "EDIT_TYPE_ITEMS",
-           "POSITION_ITEMS",
-           "CHANGE_COLOR_ITEMS"]
+           "POSITION_ITEMS", "CHANGE_COLOR_ITEMS", "ENGINE_PARAMS", "PARAM_METHOD", "engine_param_property",
+           "engine_param_properties"]
+
+
+def engine_param_property(key: str, name: str, unit: str):
+    """A FloatProperty whose default and description are the engine parameter ``key``'s.
+
+    ``unit`` is Blender's ("LENGTH", metres, or "AREA", square metres), the engine's SI unit.
+    """
+    row = next((r for r in params_table(Params()) if r.key == key), None)
+    if row is None or not isinstance(row.value, float):
+        raise KeyError(f"the engine has no number parameter {key!r}")
+    kw = {"subtype": "DISTANCE"} if unit == "LENGTH" else {}
+    return FloatProperty(name=name, default=row.value, min=0.0, unit=unit, precision=3,
+                         description=f"{row.doc} (engine parameter {key})", **kw)
+
+
+def engine_param_properties() -> dict:
+    """``{property name: FloatProperty}`` for every entry of :data:`ENGINE_PARAMS`."""
+    return {prop: engine_param_property(key, label, unit) for prop, key, label, unit in ENGINE_PARAMS}
 
 
 def _update_change_colors(self, context):
     """Switch every scan that has change colours to the chosen colouring."""
-    from . import bridge
-
     for obj in bridge.changed_scans():
         bridge.set_change_colors(obj, self.change_color_mode)
 
@@ -80,18 +115,15 @@ class INDOOR_PG_settings(bpy.types.PropertyGroup):
     reconstruct_seed: IntProperty(name="Seed", default=0, min=0,
                                   description="Seed of the reconstruction (same seed, same model)")
     use_custom_params: BoolProperty(name="Set parameters", default=False,
-                                    description="Override key parameters (else the engine's defaults, "
-                                                "data-dependent ones chosen from the scan)")
-    min_wall_area: FloatProperty(name="Min wall area", default=1.5, min=0.0, soft_max=10.0, unit="AREA",
-                                 description="Smallest wall (m²) kept (Manhattan: wall hypotheses; "
-                                             "generic: wall planes)")
-    max_wall_thickness: FloatProperty(name="Max wall thickness", default=0.5, min=0.05, soft_max=1.0,
-                                      subtype="DISTANCE", unit="LENGTH",
-                                      description="Thickest wall the Manhattan grammar pairs into one "
-                                                  "wall (m)")
-    working_voxel: FloatProperty(name="Working voxel", default=0.02, min=0.005, soft_max=0.1,
-                                 subtype="DISTANCE", unit="LENGTH",
-                                 description="Voxel of the generic method's working cloud (m)")
+                                    description="Override key parameters (else the loaded parameter file's "
+                                                "or the engine's defaults, data-dependent ones chosen from "
+                                                "the scan)")
+    __annotations__.update(engine_param_properties())
+    params_toml: StringProperty(name="Parameters", default="", options={"HIDDEN"},
+                                description="TOML of the parameters loaded by Load parameters (empty: the "
+                                            "engine's defaults)")
+    params_file: StringProperty(name="Parameter file", default="", subtype="FILE_PATH",
+                                description="The file Load parameters read (shown only)")
 
     # Review and fix
     edit_type: EnumProperty(name="New type", items=EDIT_TYPE_ITEMS, default="interior",

@@ -3,6 +3,7 @@
     python scripts/extension.py build [--out dist] [--no-wheels] [--split-platforms]
     python scripts/extension.py wheels [--platform linux-x64 ...]    # download the listed wheels
     python scripts/extension.py lock [--platform ...]                # resolve versions -> wheel list
+    python scripts/extension.py probe [--scan FILE]                  # which wheels the engine loads
 
 With a Blender binary the same zip comes from
 ``blender --command extension build --source-dir . --output-dir dist`` (add
@@ -22,7 +23,16 @@ CPython 3.11, Blender 4.2–4.5's Python; nothing is committed (``wheels/`` is g
 
 ``lock`` resolves the engine's requirements for each platform with
 ``pip install --dry-run --report`` and prints the ``wheels = [...]`` list for the manifest,
-leaving out what Blender itself ships (numpy and friends).
+leaving out what Blender itself ships (numpy and friends) and the distributions the engine's
+dependencies declare but never load (:data:`NOT_LOADED`: open3d's Jupyter and web-app
+extras, for instance).
+
+``probe`` checks that list: it installs this machine's platform's wheels of the manifest
+alone into a temporary folder, beside the packages Blender ships (linked from this Python),
+runs the engine's whole run-time work there (both methods, IFC out and in, evaluation with
+its plot, change detection, LAZ, E57 and OBJ input) with no other site-packages, and prints
+the distributions that were loaded and the listed ones that were not; it fails when the work
+fails (a wheel the engine needs is missing).
 """
 from __future__ import annotations
 
@@ -42,13 +52,29 @@ MANIFEST = "blender_manifest.toml"
 PYTHON_VERSION = "3.11"
 """Python of Blender 4.2–4.5 (the wheels' ``cp311`` tag)."""
 REQUIREMENTS = ["scipy>=1.11", "open3d>=0.18", "shapely>=2.0", "networkx>=3.0", "ifcopenshell>=0.8",
-                "trimesh>=4.0", "laspy>=2.5", "lazrs", "pye57>=0.4", "numpy>=1.26,<2"]
+                "trimesh>=4.0", "laspy>=2.5", "lazrs", "pye57>=0.4", "matplotlib>=3.7", "numpy>=1.26,<2"]
 """What the engine needs (the ranges of requirements.txt). numpy is constrained to what
 Blender 4.2–4.5 ship (1.26) so the resolver picks builds compatible with it; numpy itself is
 never bundled."""
 BLENDER_SHIPS = {"numpy", "requests", "certifi", "idna", "charset-normalizer", "urllib3", "cython",
                  "zstandard"}
 """Packages Blender's own Python already has; never bundled (bundling numpy breaks Blender)."""
+NOT_LOADED = {
+    # open3d's optional Jupyter widget and its IPython stack
+    "ipywidgets", "jupyterlab-widgets", "widgetsnbextension", "comm", "traitlets", "ipython",
+    "ipython-pygments-lexers", "pygments", "jedi", "parso", "prompt-toolkit", "wcwidth", "pexpect",
+    "ptyprocess", "stack-data", "executing", "asttokens", "pure-eval", "matplotlib-inline",
+    "nbformat", "fastjsonschema", "jsonschema", "jsonschema-specifications", "referencing", "rpds-py",
+    "attrs", "jupyter-core", "platformdirs", "nest-asyncio", "retrying",
+    # dash's web server (open3d imports dash, which never starts a server here)
+    "flask", "blinker", "click", "itsdangerous", "jinja2", "importlib-metadata", "zipp", "setuptools",
+    # open3d's command-line tools, ifcopenshell's and matplotlib's unused extras
+    "configargparse", "psutil", "tzdata", "isodate", "lazy-importer", "contourpy",
+}
+"""Distributions the engine's dependencies declare but the engine never loads at run time
+(``probe``: an import of open3d, ifcopenshell, trimesh, laspy, pye57, matplotlib and a whole
+run load none of them, and the run works without them); never bundled. What open3d imports
+unconditionally (dash, plotly and what they import) stays."""
 PLATFORM_TAGS = {
     "linux-x64": ["manylinux_2_35_x86_64", "manylinux_2_34_x86_64", "manylinux_2_31_x86_64",
                   "manylinux_2_28_x86_64", "manylinux_2_27_x86_64", "manylinux_2_24_x86_64",
@@ -247,7 +273,7 @@ def lock(platforms, pip=None) -> list[str]:
     """Resolve :data:`REQUIREMENTS` for each platform (newest versions that fit).
 
     Returns the sorted ``./wheels/<file>`` entries for the manifest, without the packages
-    in :data:`BLENDER_SHIPS`.
+    in :data:`BLENDER_SHIPS` and :data:`NOT_LOADED`.
     """
     pip = pip or [sys.executable, "-m", "pip"]
     reqs = list(REQUIREMENTS)
@@ -264,10 +290,146 @@ def lock(platforms, pip=None) -> list[str]:
             subprocess.run(cmd + reqs, check=True)
             with open(report) as f:
                 for item in json.load(f)["install"]:
-                    if item["metadata"]["name"].lower().replace("_", "-") in BLENDER_SHIPS:
+                    if dist_name(item["metadata"]["name"]) in BLENDER_SHIPS | NOT_LOADED:
                         continue
                     entries.add("./wheels/" + item["download_info"]["url"].rsplit("/", 1)[1])
     return sorted(entries)
+
+
+def dist_name(name: str) -> str:
+    """A distribution name normalised as in PEP 503 (``Typing_Extensions`` → ``typing-extensions``)."""
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
+def _this_platform() -> str:
+    plat = sys.platform
+    if plat.startswith("linux"):
+        return "linux-x64"
+    return "windows-x64" if plat == "win32" else "macos-arm64"
+
+
+def _link_blender_packages(dest: str) -> list[str]:
+    """Link the packages of :data:`BLENDER_SHIPS` installed in this Python into ``dest``."""
+    import importlib.metadata as md
+
+    linked = []
+    for d in md.distributions():
+        if dist_name(d.metadata["Name"]) not in BLENDER_SHIPS:
+            continue
+        base = str(d.locate_file(""))
+        for top in sorted({str(f).split("/")[0] for f in d.files or []}):
+            src, dst = os.path.join(base, top), os.path.join(dest, top)
+            if top.startswith("..") or top == "bin" or not os.path.exists(src) or os.path.exists(dst):
+                continue
+            os.symlink(src, dst)
+            linked.append(top)
+    return linked
+
+
+def probe(scan: str, root: str = ROOT, pip=None) -> dict:
+    """Run the engine's run-time work with only this platform's manifest wheels and Blender's
+    packages; returns ``{"loaded": [...], "not_loaded": [...], "steps": {name: seconds}}``.
+
+    Raises
+    ------
+    SystemExit
+        A listed wheel is missing (``make wheels``) or the work fails without the others.
+    """
+    pip = pip or [sys.executable, "-m", "pip"]
+    platform = _this_platform()
+    wheels = [w.lstrip("./") for w in read_manifest(root).get("wheels", [])]
+    wheels = [w for w in wheels if wheel_platform(w) in (None, platform)]
+    missing = [w for w in wheels if not os.path.isfile(os.path.join(root, w))]
+    if missing:
+        raise SystemExit(f"{len(missing)} wheel(s) are missing, e.g. {missing[0]}: run `make wheels`")
+    with tempfile.TemporaryDirectory(prefix="indoor-probe-") as tmp:
+        site, ships = os.path.join(tmp, "site"), os.path.join(tmp, "blender")
+        os.makedirs(ships)
+        subprocess.run([*pip, "install", "--quiet", "--no-deps", "--no-index", "--target", site,
+                        *[os.path.join(root, w) for w in wheels]], check=True)
+        _link_blender_packages(ships)
+        # -S -E: no site-packages, no PYTHONPATH; the child sees the wheels, Blender's packages, the engine
+        proc = subprocess.run([sys.executable, "-S", "-E", os.path.abspath(__file__), "_work",
+                               json.dumps([site, ships, root]), os.path.abspath(scan)],
+                              capture_output=True, text=True, cwd=tmp)
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("PROBE ")]
+    if proc.returncode != 0 or not lines:
+        raise SystemExit(f"the engine's work failed with only the manifest's wheels:\n{proc.stderr[-3000:]}")
+    out = json.loads(lines[-1][len("PROBE "):])
+    listed = {dist_name(parse_wheel_name(w)["name"]) for w in wheels}
+    out["loaded"] = sorted(set(out["loaded"]) & (listed | BLENDER_SHIPS))
+    out["not_loaded"] = sorted(listed - set(out["loaded"]))
+    return out
+
+
+_OBJ_BOX = ("v 0 0 0\nv 4 0 0\nv 4 3 0\nv 0 3 0\nv 0 0 2.5\nv 4 0 2.5\nv 4 3 2.5\nv 0 3 2.5\n"
+            "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\n"
+            "f 4 1 5\nf 4 5 8\n")
+"""A 4 x 3 x 2.5 m box as OBJ (a reference model read through trimesh)."""
+
+
+def _work(paths: list[str], scan: str) -> None:
+    """The child of :func:`probe`: every run-time path of the engine, then the loaded distributions."""
+    import time
+
+    sys.path[:0] = paths
+    from engine.change import detect_changes
+    from engine.evaluation import evaluate, load_model, write_evaluation_outputs
+    from engine.ifc import write_ifc
+    from engine.io import read_point_cloud
+    from engine.reconstruct import reconstruct
+
+    tmp = tempfile.mkdtemp(prefix="indoor-probe-work-")
+    steps, state = {}, {}
+
+    def step(name, fn):
+        t = time.perf_counter()
+        fn()
+        steps[name] = round(time.perf_counter() - t, 2)
+
+    def laz():
+        import laspy
+
+        header = laspy.LasHeader(point_format=3, version="1.2")
+        header.scales = [0.001] * 3
+        las = laspy.LasData(header)
+        xyz = state["cloud"].xyz[:5000]
+        las.x, las.y, las.z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+        las.write(os.path.join(tmp, "s.laz"))
+        assert len(read_point_cloud(os.path.join(tmp, "s.laz"))) == len(xyz)
+
+    def e57():
+        import pye57
+
+        xyz = state["cloud"].xyz[:5000]
+        f = pye57.E57(os.path.join(tmp, "s.e57"), mode="w")
+        f.write_scan_raw({"cartesianX": xyz[:, 0], "cartesianY": xyz[:, 1], "cartesianZ": xyz[:, 2]})
+        f.close()
+        assert len(read_point_cloud(os.path.join(tmp, "s.e57"))) == len(xyz)
+
+    def obj():
+        with open(os.path.join(tmp, "box.obj"), "w") as f:
+            f.write(_OBJ_BOX)
+        load_model(os.path.join(tmp, "box.obj"))
+
+    ifc = os.path.join(tmp, "model.ifc")
+    step("read", lambda: state.update(cloud=read_point_cloud(scan)))
+    step("manhattan", lambda: state.update(model=reconstruct(state["cloud"], "manhattan", rng=0)))
+    step("generic", lambda: reconstruct(state["cloud"], "generic", rng=0))
+    step("auto", lambda: reconstruct(state["cloud"], "auto", rng=0))
+    step("write_ifc", lambda: write_ifc(state["model"], ifc))
+    step("read_ifc", lambda: state.update(reference=load_model(ifc)))
+    step("evaluate", lambda: write_evaluation_outputs(evaluate(state["model"], state["reference"]),
+                                                      os.path.join(tmp, "evaluation")))
+    step("changes", lambda: detect_changes(state["model"], state["cloud"]))
+    step("laz", laz)
+    step("e57", e57)
+    step("obj", obj)
+    import importlib.metadata as md
+
+    tops = md.packages_distributions()
+    loaded = {dist_name(d) for m in list(sys.modules) for d in tops.get(m.split(".")[0], [])}
+    print("PROBE " + json.dumps({"loaded": sorted(loaded), "steps": steps}))
 
 
 # --------------------------------------------------------------------------- CLI
@@ -284,6 +446,11 @@ def main(argv=None):
                    help="only this platform's wheels (repeatable; default all)")
     lk = sub.add_parser("lock", help="print the manifest's wheels list for this environment's versions")
     lk.add_argument("--platform", action="append", choices=sorted(PLATFORM_TAGS))
+    pr = sub.add_parser("probe", help="run the engine with only the manifest's wheels; list what it loads")
+    pr.add_argument("--scan", default=os.path.join(ROOT, "tests", "data", "room_scan1.pcd"))
+    wk = sub.add_parser("_work")  # the child of probe
+    wk.add_argument("paths")
+    wk.add_argument("scan")
     args = p.parse_args(argv)
     if args.cmd == "build":
         if args.split_platforms:
@@ -291,6 +458,11 @@ def main(argv=None):
                 print(build(args.out, with_wheels=not args.no_wheels, platform=plat))
         else:
             print(build(args.out, with_wheels=not args.no_wheels))
+    elif args.cmd == "probe":
+        out = probe(args.scan)
+        print(json.dumps(out, indent=1))
+    elif args.cmd == "_work":
+        _work(json.loads(args.paths), args.scan)
     elif args.cmd == "wheels":
         files = download_wheels(platforms=args.platform)
         print(f"{len(files)} wheel(s) in {os.path.join(ROOT, 'wheels')}")

@@ -258,7 +258,7 @@ def test_bridge_failure_midway_removes_what_it_made(scene, addon, monkeypatch, r
     def boom(mesh, name, values):
         raise eng.InputError("field cannot be written", "mem.ply")
 
-    monkeypatch.setattr(addon.bridge, "_write_field", boom)
+    monkeypatch.setattr(addon.bridge.points, "_write_field", boom)
     with pytest.raises(eng.InputError):
         addon.bridge.point_cloud_to_object(cloud, name="mem")
     assert bu.scene_state() == before
@@ -399,12 +399,11 @@ def test_import_of_a_bad_count_and_a_bug_are_one_line_reports(scene, tmp_path, m
     assert "neg.ply: input error" in msg and "negative" in msg and "Traceback" not in msg
     assert len(msg.strip().splitlines()) == 1
     assert bu.scene_state() == before
-    io = bu.engine_module("io")
-
     def boom(*a, **k):
         raise ZeroDivisionError("float division by zero")
 
-    monkeypatch.setattr(io, "read_point_cloud", boom)
+    # the engine's reader, as the Import operator calls it, raises a bug
+    monkeypatch.setattr(bu.addon_module().operators.scan, "read_point_cloud", boom)
     with pytest.raises(RuntimeError) as e:
         bpy.ops.indoor.import_scan(filepath=str(bad))
     msg = str(e.value)

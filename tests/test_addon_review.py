@@ -301,6 +301,38 @@ def test_detect_changes_from_file_and_bad_file_leaves_scene(addon, change_demo, 
     assert np.mean(t[is_new] == 1) > 0.8 and np.mean(t[~is_new] == 0) > 0.9
 
 
+def test_a_bug_in_detect_changes_leaves_no_new_scan(addon, change_demo, tmp_path, monkeypatch):
+    """A failure that is not an engine error (a bug), after the scan file became an object and the
+    overlay was drawn, removes that object and everything else the operator made."""
+    scene = bu.fresh_scene()
+    addon.bridge.model_to_objects(change_demo.truth, scene=scene)
+    sub = change_demo.cloud.subset(np.arange(0, len(change_demo.cloud), 8))
+    good = tmp_path / "newer.ply"
+    bu.engine_module("io").write_ply(str(good), sub)
+    before = bu.scene_state()
+    draw = addon.bridge.change_overlay
+
+    def buggy(obj, result, model, **kw):
+        draw(obj, result, model, **kw)
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(addon.bridge, "change_overlay", buggy)
+    with pytest.raises(RuntimeError) as e:
+        bpy.ops.indoor.detect_changes(filepath=str(good))
+    assert "internal error: ZeroDivisionError" in str(e.value) and "Traceback" not in str(e.value)
+    assert bu.scene_state() == before and bpy.data.objects.get("newer") is None
+    assert scene.indoor.change_summary == ""
+    monkeypatch.setattr(addon.bridge, "change_overlay", draw)
+
+    def engine_bug(*a, **k):
+        raise KeyError("registration")
+
+    monkeypatch.setattr(addon.operators.analysis, "detect_changes", engine_bug)
+    with pytest.raises(RuntimeError, match="internal error: KeyError"):
+        bpy.ops.indoor.detect_changes(filepath=str(good))
+    assert bu.scene_state() == before and scene.indoor.change_summary == ""
+
+
 def test_blend_reopens_with_model_history_and_overlays(office_scene, addon, tmp_path):
     model = addon.bridge.stored_model()
     wall_id, a, b = _unconnected_neighbours(model)
@@ -406,17 +438,17 @@ def test_modal_reconstruct_progress_and_cancel(addon, office):
     scene = bu.fresh_scene()
     bridge = addon.bridge
     obj = bridge.point_cloud_to_object(office.cloud, name="office")
-    ops = addon.operators
+    ReconstructJob = bu.engine_module("background").ReconstructJob
     # cancelled (Esc) right away: the engine stops at its next check, the scene is unchanged
     before = bu.scene_state()
-    job = ops.ReconstructJob(bridge.object_to_cloud(obj), "manhattan", 0).start()
+    job = ReconstructJob(bridge.object_to_cloud(obj), "manhattan", 0).start()
     state, reports, _ = _drive_modal(addon, job, ["ESC", "TIMER"])
     assert state == {"CANCELLED"} and job.cancelled and job.model is None
     assert reports and reports[-1][0] == {"WARNING"} and "cancelled" in reports[-1][1]
     assert bu.scene_state() == before and "Indoor Model.json" not in bpy.data.texts
     assert not scene.indoor.running
     # a full run: progress rises to 1 and the objects are built on the main thread at the end
-    job = ops.ReconstructJob(bridge.object_to_cloud(obj), "manhattan", 0).start()
+    job = ReconstructJob(bridge.object_to_cloud(obj), "manhattan", 0).start()
     state, reports, seen = _drive_modal(addon, job, ["TIMER"])
     assert state == {"FINISHED"} and job.error is None, reports
     assert all(b >= a for a, b in zip(seen, seen[1:])) and seen[-1] == pytest.approx(1.0)
@@ -518,28 +550,131 @@ def test_export_opens_in_bonsai_only_when_installed(addon, office, tmp_path):
     assert opened == [str(tmp_path / "n.ifc")]
 
 
-def test_reconstruct_passes_key_parameters(addon, office, monkeypatch):
-    scene = bu.fresh_scene()
-    obj = addon.bridge.point_cloud_to_object(office.cloud, name="office")
-    _select(obj)
-    rec = bu.engine_module("reconstruct")
+def _fake_reconstruct(addon, monkeypatch, office):
+    """Record the Reconstruct operator's engine calls; the model is the preset's truth."""
     seen = []
 
     def fake(cloud, method, *, params=None, rng=0, progress=None, should_stop=None):
         seen.append((method, params, rng))
         return office.truth
 
-    monkeypatch.setattr(rec, "reconstruct", fake)
+    monkeypatch.setattr(addon.operators.reconstruction, "reconstruct", fake)
+    return seen
+
+
+def test_parameter_defaults_are_the_engines(addon):
+    """Every parameter the add-on shows starts at the engine's default of its key (the generic
+    method's smallest wall is 0.5 m², not the Manhattan grammar's 1.5 m²)."""
+    pm = bu.engine_module("params")
+    defaults = {r.key: r.value for r in pm.params_table(pm.Params())}
+    shown = addon.props.ENGINE_PARAMS
+    assert {key for _, key, _, _ in shown} == {
+        "manhattan.min_wall_area", "generic.cells.min_wall_area", "manhattan.max_wall_thickness",
+        "generic.search.max_wall_thickness", "preprocess.clean.voxel_size"}
+    for prop, key, _, _ in shown:
+        for where, rna in (("scene", addon.props.INDOOR_PG_settings.bl_rna),
+                           ("operator", bpy.ops.indoor.reconstruct.get_rna_type())):
+            assert rna.properties[prop].default == pytest.approx(defaults[key], rel=1e-6), (where, prop)
+            assert key in rna.properties[prop].description
+    settings = bu.fresh_scene().indoor
+    assert settings.min_wall_area_generic == pytest.approx(pm.Params().generic.cells.min_wall_area)
+    assert settings.min_wall_area_manhattan == pytest.approx(pm.Params().manhattan.min_wall_area)
+
+
+def test_reconstruct_passes_key_parameters(addon, office, monkeypatch):
+    scene = bu.fresh_scene()
+    obj = addon.bridge.point_cloud_to_object(office.cloud, name="office")
+    _select(obj)
+    pm = bu.engine_module("params")
+    defaults = pm.Params()
+    seen = _fake_reconstruct(addon, monkeypatch, office)
     assert bpy.ops.indoor.reconstruct(method="manhattan", seed=3) == {"FINISHED"}
     assert seen[-1] == ("manhattan", None, 3)  # defaults: the engine chooses from the data
-    assert bpy.ops.indoor.reconstruct(method="manhattan", use_custom_params=True, min_wall_area=2.5,
-                                      max_wall_thickness=0.35) == {"FINISHED"}
+    # "Set parameters" with the shown values untouched: exactly the engine's defaults
+    assert bpy.ops.indoor.reconstruct(method="auto", use_custom_params=True) == {"FINISHED"}
+    assert seen[-1][1] == defaults
+    assert bpy.ops.indoor.reconstruct(method="manhattan", use_custom_params=True, min_wall_area_manhattan=2.5,
+                                      max_wall_thickness_manhattan=0.35) == {"FINISHED"}
     method, params, _ = seen[-1]
-    assert method == "manhattan" and type(params).__name__ == "ManhattanParams"
-    assert params.min_wall_area == pytest.approx(2.5) and params.max_wall_thickness == pytest.approx(0.35)
-    assert params.bin_size is None  # data-dependent fields still chosen from the scan
-    res = bpy.ops.indoor.reconstruct(method="generic", use_custom_params=True, working_voxel=0.04)
+    assert method == "manhattan" and isinstance(params, pm.Params)
+    assert params.manhattan.min_wall_area == 2.5 and params.manhattan.max_wall_thickness == 0.35
+    assert params.manhattan.bin_size is None  # data-dependent fields still chosen from the scan
+    assert params.generic == defaults.generic and params.preprocess == defaults.preprocess
+    res = bpy.ops.indoor.reconstruct(method="generic", use_custom_params=True, working_voxel=0.04,
+                                     min_wall_area_generic=0.7)
     assert res == {"FINISHED"}
     method, params, _ = seen[-1]
-    assert type(params).__name__ == "GenericParams" and params.working_voxel == pytest.approx(0.04)
+    assert method == "generic" and params.preprocess.clean.voxel_size == 0.04
+    assert params.generic.cells.min_wall_area == 0.7 and params.manhattan == defaults.manhattan
     assert len(_objects("Spaces", scene)) == len(office.truth.spaces)
+
+
+def test_reconstruct_takes_the_panel_settings(addon, office, monkeypatch):
+    """Settings of the panel (scene.indoor) are the run's unless the caller sets them."""
+    scene = bu.fresh_scene()
+    _select(addon.bridge.point_cloud_to_object(office.cloud, name="office"))
+    seen = _fake_reconstruct(addon, monkeypatch, office)
+    s = scene.indoor
+    s.method, s.reconstruct_seed, s.use_custom_params, s.min_wall_area_generic = "generic", 7, True, 0.9
+    assert bpy.ops.indoor.reconstruct() == {"FINISHED"}
+    method, params, seed = seen[-1]
+    assert (method, seed) == ("generic", 7) and params.generic.cells.min_wall_area == 0.9
+    assert bpy.ops.indoor.reconstruct(seed=2, use_custom_params=False) == {"FINISHED"}
+    assert seen[-1] == ("generic", None, 2)
+
+
+def test_load_and_save_parameters(addon, office, monkeypatch, tmp_path):
+    scene = bu.fresh_scene()
+    _select(addon.bridge.point_cloud_to_object(office.cloud, name="office"))
+    pm = bu.engine_module("params")
+    seen = _fake_reconstruct(addon, monkeypatch, office)
+    path = tmp_path / "mine.toml"
+    path.write_text("[manhattan]\nmin_wall_area = 2.0\n\n[generic.cells]\nmin_wall_area = 0.8\n")
+    assert bpy.ops.indoor.load_parameters(filepath=str(path)) == {"FINISHED"}
+    loaded = pm.load_params(str(path))
+    s = scene.indoor
+    assert s.params_file == str(path) and s.params_toml
+    assert s.min_wall_area_manhattan == pytest.approx(2.0) and s.min_wall_area_generic == pytest.approx(0.8)
+    assert bpy.ops.indoor.reconstruct(method="manhattan") == {"FINISHED"}
+    assert seen[-1][1] == loaded  # the loaded parameters are the run's
+    assert bpy.ops.indoor.reconstruct(method="generic", use_custom_params=True,
+                                      min_wall_area_generic=1.25) == {"FINISHED"}
+    params = seen[-1][1]
+    assert params.generic.cells.min_wall_area == 1.25 and params.manhattan.min_wall_area == 2.0
+    # Save writes what Reconstruct would use: the loaded file and, when set, the panel's values
+    out = tmp_path / "saved.toml"
+    assert bpy.ops.indoor.save_parameters(filepath=str(out)) == {"FINISHED"}
+    assert pm.load_params(str(out)) == loaded
+    s.use_custom_params, s.max_wall_thickness_generic = True, 0.25
+    assert bpy.ops.indoor.save_parameters(filepath=str(out)) == {"FINISHED"}
+    assert pm.load_params(str(out)).generic.search.max_wall_thickness == 0.25
+    assert pm.load_params(str(out)).manhattan.min_wall_area == 2.0
+
+
+@pytest.mark.parametrize("case", ["unknown_key", "not_toml", "missing"])
+def test_bad_parameter_file_reports_and_changes_nothing(addon, tmp_path, case):
+    scene = bu.fresh_scene()
+    path = tmp_path / f"{case}.toml"
+    if case == "unknown_key":
+        path.write_text("[manhattan]\nno_such_key = 1.0\n")
+    elif case == "not_toml":
+        path.write_text("[manhattan\nmin_wall_area = \n")
+    s = scene.indoor
+    before = (s.params_toml, s.params_file, s.min_wall_area_manhattan)
+    state = bu.scene_state()
+    with pytest.raises(RuntimeError) as e:
+        bpy.ops.indoor.load_parameters(filepath=str(path))
+    msg = str(e.value)
+    assert f"{case}.toml" in msg and "input error" in msg and len(msg.strip().splitlines()) == 1
+    assert "no_such_key" in msg or case != "unknown_key"
+    assert (s.params_toml, s.params_file, s.min_wall_area_manhattan) == before
+    assert bu.scene_state() == state
+
+
+def test_save_parameters_to_a_bad_place_reports(addon, tmp_path):
+    bu.fresh_scene()
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    with pytest.raises(RuntimeError, match="output error"):
+        bpy.ops.indoor.save_parameters(filepath=str(blocker / "p.toml"))
+    assert blocker.read_text() == "x"

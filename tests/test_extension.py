@@ -48,7 +48,8 @@ def test_build_without_wheels_packs_the_extension_only(tmp_path):
         names = set(z.namelist())
         packed_manifest = tomllib.loads(z.read("blender_manifest.toml").decode())
     for required in ("__init__.py", "blender_manifest.toml", "LICENSE", "blender_indoor_addon/__init__.py",
-                     "blender_indoor_addon/operators.py", "blender_indoor_addon/bridge.py",
+                     "blender_indoor_addon/operators/__init__.py", "blender_indoor_addon/bridge/__init__.py",
+                     "blender_indoor_addon/bridge/points.py", "engine/background.py",
                      "engine/__init__.py", "engine/io/__init__.py", "engine/pointcloud.py"):
         assert required in names
     for n in names:
@@ -130,8 +131,12 @@ def test_manifest_wheels_cover_the_engine_dependencies():
     for platform in manifest["platforms"]:
         have = {p["name"].lower() for p in parsed
                 if p["plat"] == "any" or ext._plat_family(p["plat"].split(".")[0]) == platform}
-        for need in ("scipy", "open3d", "shapely", "networkx", "ifcopenshell", "trimesh", "laspy", "pye57"):
+        for need in ("scipy", "open3d", "shapely", "networkx", "ifcopenshell", "trimesh", "laspy", "lazrs",
+                     "pye57", "matplotlib"):
             assert need in have, (platform, need)
+    dists = {ext.dist_name(p["name"]) for p in parsed}
+    assert not dists & ext.NOT_LOADED, dists & ext.NOT_LOADED  # what the engine never loads is left out
+    assert not dists & ext.BLENDER_SHIPS
     for p in parsed:  # every wheel fits Blender 4.2-4.5's CPython 3.11
         if p["abi"] == "abi3":  # stable ABI: built for CPython 3.x <= 3.11
             assert p["py"].startswith("cp3") and int(p["py"][3:]) <= 11, p
@@ -139,6 +144,41 @@ def test_manifest_wheels_cover_the_engine_dependencies():
             assert p["py"] in {"py3", "py2.py3", "py311"}, p
         else:
             assert (p["py"], p["abi"]) == ("cp311", "cp311"), p
+
+
+def test_lock_leaves_out_what_blender_ships_and_what_is_never_loaded(tmp_path):
+    """``lock`` keeps the resolved wheels but those of BLENDER_SHIPS and NOT_LOADED (pip stands in)."""
+    resolved = ["open3d-0.20.0-cp311-cp311-win_amd64.whl", "dash-4.4.1-py3-none-any.whl",
+                "Flask-3.1.3-py3-none-any.whl", "ipython-9.18.1-py3-none-any.whl",
+                "numpy-1.26.4-cp311-cp311-win_amd64.whl", "typing_extensions-4.16.0-py3-none-any.whl"]
+    fake_pip = tmp_path / "pip.py"
+    fake_pip.write_text(textwrap.dedent(f"""\
+        import json, sys
+        report = sys.argv[sys.argv.index("--report") + 1]
+        names = {resolved!r}
+        items = [{{"metadata": {{"name": n.split("-")[0]}},
+                   "download_info": {{"url": "https://files.example/x/" + n}}}} for n in names]
+        json.dump({{"install": items}}, open(report, "w"))
+        """))
+    entries = ext.lock(["windows-x64"], pip=[sys.executable, str(fake_pip)])
+    assert entries == ["./wheels/dash-4.4.1-py3-none-any.whl",
+                       "./wheels/open3d-0.20.0-cp311-cp311-win_amd64.whl",
+                       "./wheels/typing_extensions-4.16.0-py3-none-any.whl"]
+
+
+@pytest.mark.slow
+def test_engine_runs_with_only_the_manifest_wheels():
+    """The whole run-time work of the engine (both methods, IFC, evaluation, changes, LAZ, E57,
+    OBJ) with only this platform's listed wheels and Blender's packages: it works, and every
+    listed wheel is loaded (``extension.py probe``; needs ``make wheels``)."""
+    manifest = ext.read_manifest()
+    here = ext._this_platform()
+    wheels = [w.lstrip("./") for w in manifest["wheels"] if ext.wheel_platform(w) in (None, here)]
+    if not all(os.path.isfile(os.path.join(ROOT, w)) for w in wheels):
+        pytest.skip("the manifest's wheels are not downloaded (make wheels)")
+    out = ext.probe(os.path.join(ROOT, "tests", "data", "room_scan1.pcd"))
+    assert out["not_loaded"] == []
+    assert {"open3d", "ifcopenshell", "scipy", "matplotlib", "pye57", "laspy"} <= set(out["loaded"])
 
 
 _INSTALL_SCRIPT = r'''
