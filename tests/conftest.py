@@ -1,11 +1,15 @@
+"""Fixtures shared by every test folder: the data folder, a seeded generator, and synthetic
+scenes, models and scan files built once per session."""
 import functools
-import os
 
 import numpy as np
 import pytest
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DATA = os.path.join(ROOT, "tests", "data")
+from engine.grammar import reconstruct_manhattan
+from engine.grammar.generic import reconstruct_generic
+from engine.io import write_ply
+from engine.synthetic import preset
+from scenes import DATA
 
 
 @pytest.fixture
@@ -25,8 +29,6 @@ def rng():
 
 @functools.lru_cache(maxsize=None)
 def _scene(name: str, seed: int, noise, points: int):
-    from engine.synthetic import preset
-
     return preset(name, seed=seed, noise=noise, target_points=points)
 
 
@@ -34,12 +36,8 @@ def _scene(name: str, seed: int, noise, points: int):
 def _model(method: str, name: str, seed: int, noise, points: int, rng: int = 0):
     cloud = _scene(name, seed, noise, points).cloud
     if method == "manhattan":
-        from engine.grammar import reconstruct_manhattan
-
         return reconstruct_manhattan(cloud, rng=rng)
     if method == "generic":
-        from engine.grammar.generic import reconstruct_generic
-
         return reconstruct_generic(cloud, rng=rng)
     raise ValueError(f"unknown method {method!r}")
 
@@ -63,8 +61,6 @@ def synthetic_model():
 def synthetic_scan_file(tmp_path_factory):
     """``synthetic_scan_file(name, seed, points, filename)``: the path of that preset's TLS scan
     written once per session as a binary PLY called ``filename`` (its own folder per call)."""
-    from engine.io import write_ply
-
     made = {}
 
     def get(name: str, seed: int, points: int, filename: str):

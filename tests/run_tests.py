@@ -3,7 +3,9 @@
     blender -b --factory-startup --python-exit-code 1 --python tests/run_tests.py -- <pytest args>
     python tests/run_tests.py <pytest args>          # with the bpy module installed
 
-The exit code is pytest's (non-zero on any failure or when no test ran).
+Without path arguments pytest collects every folder under tests/ (``testpaths`` and
+``pythonpath`` in pyproject.toml). The exit code is pytest's (non-zero on any failure or
+when no test ran).
 """
 import os
 import site

@@ -16,41 +16,17 @@ pytest.importorskip("ifcopenshell")
 import ifcopenshell.guid  # noqa: E402
 import ifcopenshell.util.element  # noqa: E402
 
-from engine import (BuildingModel, FormatError, InputError, Polyhedron, Provenance, Relation,  # noqa: E402
-                    Shape, Storey)
+from engine import BuildingModel, FormatError, InputError, Provenance  # noqa: E402
 from engine.errors import OutputError  # noqa: E402
 from engine.evaluation import load_model  # noqa: E402
 from engine.fileutil import atomic_path  # noqa: E402
 from engine.ifc import build_ifc, read_ifc, write_ifc  # noqa: E402
 from engine.ifc.common import global_id  # noqa: E402
+from scenes import ROOT  # noqa: E402
+from scenes.ifc import small_model  # noqa: E402
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-HERE = os.path.dirname(os.path.abspath(__file__))
-H = 2.6  # storey height, m
+TESTS = os.path.join(ROOT, "tests")  # on the path of the subprocesses, for scenes.ifc
 EPOCH = 1_600_000_000  # SOURCE_DATE_EPOCH of the reproducible writes (2020-09-13)
-
-
-def small_model(seed=3, name="small", with_corridor=True) -> BuildingModel:
-    """Two rooms with a wall and a door between them, an open (virtual) boundary to a corridor,
-    walls, a floor slab and an outside space: every kind of entity the writer makes."""
-    t = 0.2
-    r1 = Shape("r1", "interior", Polyhedron.box((0, 0, 0), (4, 4, H)), name="Room 1")
-    r2 = Shape("r2", "interior", Polyhedron.box((4.2, 0, 0), (8, 4, H)), name="Room 2")
-    w1 = Shape("w1", "wall", Polyhedron.box((4, 0, 0), (4.2, 4, H)), name="Wall 1", children=("d1",),
-               attributes={"thickness": t})
-    w2 = Shape("w2", "wall", Polyhedron.box((-t, -t, 0), (8 + t, 0, H)), name="Wall 2",
-               attributes={"thickness": t})
-    d1 = Shape("d1", "door", Polyhedron.box((4, 1, 0), (4.2, 1.9, 2)), name="Door 1", parent="w1",
-               attributes={"width": 0.9, "height": 2.0})
-    s0 = Shape("s0", "slab", Polyhedron.box((-t, -t, -0.3), (8 + t, 6, 0)), name="Floor")
-    x = Shape("x", "exterior", Polyhedron.box((0, -3, 0), (8, -t, H)), name="Outside")
-    shapes = [r1, r2, w1, w2, d1, s0, x]
-    rel = [Relation("adjacency", "r1", "r2", via="w1"), Relation("connectivity", "r1", "r2", via="d1")]
-    if with_corridor:
-        shapes.append(Shape("c", "interior", Polyhedron.box((0, 4, 0), (8, 6, H)), name="Corridor"))
-        rel += [Relation("adjacency", "r1", "c"), Relation("connectivity", "r1", "c")]
-    return BuildingModel(shapes=tuple(shapes), storeys=(Storey(0, 0.0, H, "Ground", 0.0),), relations=rel,
-                         provenance=Provenance("test", {"eps": 0.05}, seed), name=name)
 
 
 def _mask_time_stamp(text: str) -> str:
@@ -65,14 +41,14 @@ def _roots(path):
 # --------------------------------------------------------------------------- 1. GlobalIds
 _SUBPROCESS_WRITE = textwrap.dedent("""
     import sys
-    sys.path[:0] = [{root!r}, {here!r}]
+    sys.path[:0] = [{root!r}, {tests!r}]
     import ifcopenshell
     noise = ifcopenshell.file()  # shifts ifcopenshell's instance counter (entity hashes)
     for i in range({n}):
         noise.createIfcWall(ifcopenshell.guid.new())
-    import test_ifc_determinism as t
+    from scenes.ifc import small_model
     from engine.ifc import write_ifc
-    write_ifc(t.small_model(), sys.argv[1])
+    write_ifc(small_model(), sys.argv[1])
 """)
 
 
@@ -84,7 +60,7 @@ def test_two_processes_write_byte_identical_files(tmp_path):
     for k, (hash_seed, n) in enumerate((("1", 0), ("2", 777))):
         (tmp_path / str(k)).mkdir()
         out = tmp_path / str(k) / "run.ifc"
-        proc = subprocess.run([sys.executable, "-c", _SUBPROCESS_WRITE.format(root=ROOT, here=HERE, n=n),
+        proc = subprocess.run([sys.executable, "-c", _SUBPROCESS_WRITE.format(root=ROOT, tests=TESTS, n=n),
                                str(out)], env=dict(env, PYTHONHASHSEED=hash_seed), cwd=str(tmp_path),
                               stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=300)
         assert proc.returncode == 0, proc.stderr[-3000:]
@@ -208,14 +184,14 @@ def test_undecodable_file_name_is_escaped_and_written_at_the_requested_path(tmp_
 # --------------------------------------------------------------------------- 4. failed writes
 _SUBPROCESS_FULL = textwrap.dedent("""
     import json, os, resource, signal, sys
-    sys.path[:0] = [{root!r}, {here!r}]
-    import test_ifc_determinism as t
+    sys.path[:0] = [{root!r}, {tests!r}]
+    from scenes.ifc import small_model
     from engine.ifc import build_ifc, write_ifc
     from engine.fileutil import atomic_path
     from engine.errors import OutputError
     out = {{}}
     folder = sys.argv[1]
-    m = t.small_model()
+    m = small_model()
     f = build_ifc(m)
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG
     resource.setrlimit(resource.RLIMIT_FSIZE, (8000, resource.RLIM_INFINITY))
@@ -238,7 +214,7 @@ def test_full_disk_leaves_nothing_and_names_the_file_and_the_os_problem(tmp_path
     folder = tmp_path / "out"
     folder.mkdir()
     (folder / "old.txt").write_text("keep")
-    proc = subprocess.run([sys.executable, "-c", _SUBPROCESS_FULL.format(root=ROOT, here=HERE), str(folder)],
+    proc = subprocess.run([sys.executable, "-c", _SUBPROCESS_FULL.format(root=ROOT, tests=TESTS), str(folder)],
                           cwd=str(tmp_path), stdin=subprocess.DEVNULL, capture_output=True, text=True,
                           timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]

@@ -10,8 +10,10 @@ import importlib.util
 import os
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DATA = os.path.join(ROOT, "tests", "data")
+import numpy as np
+
+from scenes import ROOT
+
 PACKAGE = "indoor_reconstruction"
 """The name the source tree is imported under in tests (the manifest id)."""
 
@@ -77,8 +79,6 @@ def write_binary_ply(path, xyz, *, colors=None, intensity=None, normals=None, ex
     ``intensity`` (n,) float32; ``normals`` (n, 3) float32 → nx ny nz; ``extra``: dict of
     name → (n,) int32 or float32 arrays.
     """
-    import numpy as np
-
     n = len(xyz)
     cols = [("x", "<f8", xyz[:, 0]), ("y", "<f8", xyz[:, 1]), ("z", "<f8", xyz[:, 2])]
     if colors is not None:

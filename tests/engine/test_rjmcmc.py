@@ -1,6 +1,6 @@
 """rjMCMC search on hand-made cell complexes (cells from the true wall lines).
 
-Scenes from ``test_generic_scenes``: a hexagonal hall with six trapezoid rooms (walls 60°
+Scenes from ``scenes.generic``: a hexagonal hall with six trapezoid rooms (walls 60°
 apart) and a rotated house with a slanted wall; points sampled on the true room surfaces.
 """
 import math
@@ -13,7 +13,7 @@ from engine.grammar.coverage import (alpha_area, alpha_geometry, cellset_from_po
                                      thin_points)
 from engine.grammar.generic import arrange_cells
 from engine.grammar.rjmcmc import RjmcmcParams, SpaceSearch, mdl_cost, naive_log_posterior, search_spaces
-from test_generic_scenes import Z0, Z1, hexagon_rooms, match_rooms, room_lines, sample_rooms, skew_rooms
+from scenes.generic import Z0, Z1, hexagon_rooms, match_rooms, room_lines, sample_rooms, skew_rooms
 
 
 

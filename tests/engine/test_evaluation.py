@@ -1,7 +1,8 @@
 """Quality evaluation (engine.evaluation): completeness, correctness, accuracy curves.
 
-Hand-built scenes (a 6 m × 9 m × 2.5 m room and a corridor, like the thesis's Fig. 5.9) and
-the ``eval_demo`` preset of engine.synthetic. "True shares" are derived from the geometry.
+Hand-built scenes (``scenes.evaluation``: a 6 m × 9 m × 2.5 m room and a corridor, like the
+thesis's Fig. 5.9) and the ``eval_demo`` preset of engine.synthetic. "True shares" are
+derived from the geometry.
 """
 import csv
 import json
@@ -9,43 +10,21 @@ import json
 import numpy as np
 import pytest
 
+from engine import synthetic
 from engine.errors import Cancelled, InputError
 from engine.evaluation import (EvaluationParams, annotate_visibility, evaluate, load_model, patches_from_model,
                                write_evaluation_outputs)
 from engine.evaluation.patches import points_inside
-from engine.model import BuildingModel, Polyhedron, Shape, ShapeType, Storey
+from engine.model import BuildingModel, Polyhedron
 from engine.pointcloud import PointCloud
+from scenes.evaluation import CORRIDOR, EXTRA, REF, ROOM, H, grow, room_model
 
-H = 2.5
-ROOM = (0.0, 0.0, 6.0, 9.0)
-CORRIDOR = (6.2, -1.5, 8.2, 10.5)
-EXTRA = (-5.2, 1.5, -0.2, 7.5)
 B = np.round(np.arange(1, 11) * 0.01, 2)
-
-
-def _model(rooms, jitter=0.0, rng=None):
-    """Rooms as interior prisms; ``jitter``: uniform noise (metres) on every wall position."""
-    rng = np.random.default_rng(rng)
-    shapes = []
-    for name, (x0, y0, x1, y1) in rooms.items():
-        if jitter:
-            x0, y0, x1, y1 = np.array([x0, y0, x1, y1]) + rng.uniform(-jitter, jitter, 4)
-        shapes.append(Shape(id=name, type=ShapeType.INTERIOR, geometry=Polyhedron.box((x0, y0, 0), (x1, y1, H)),
-                            name=name))
-    return BuildingModel(shapes=tuple(shapes), storeys=(Storey(0, 0.0, H),))
 
 
 def _wall_area(model, names=None):
     return sum(p.area for p in patches_from_model(model, kinds=("wall",))
                if names is None or model[p.shape_id].name in names)
-
-
-REF = _model({"Room 1": ROOM, "Corridor": CORRIDOR})
-
-
-def _grow(rect, d, sides):
-    x0, y0, x1, y1 = rect
-    return (x0 - d * ("w" in sides), y0 - d * ("s" in sides), x1 + d * ("e" in sides), y1 + d * ("n" in sides))
 
 
 def _check_inacc(res, shift=0.05):
@@ -61,14 +40,14 @@ def _check_inacc(res, shift=0.05):
 
 def test_inaccurate_source_handbuilt():
     # outer walls 5 cm outwards: the room grows west/south/north, the corridor east/south/north
-    src = _model({"Room 1": _grow(ROOM, 0.05, "wsn"), "Corridor": _grow(CORRIDOR, 0.05, "esn")})
+    src = room_model({"Room 1": grow(ROOM, 0.05, "wsn"), "Corridor": grow(CORRIDOR, 0.05, "esn")})
     _check_inacc(evaluate(src, REF))
 
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_incomplete_and_incorrect_handbuilt(seed):
     rng = np.random.default_rng(seed)
-    incomp = _model({"Room 1": ROOM}, jitter=0.005, rng=rng)
+    incomp = room_model({"Room 1": ROOM}, jitter=0.005, rng=rng)
     res = evaluate(incomp, REF)
     share = _wall_area(REF, {"Room 1"}) / _wall_area(REF)
     comp, corr = res.curve("completeness", "wall"), res.curve("correctness", "wall")
@@ -76,7 +55,7 @@ def test_incomplete_and_incorrect_handbuilt(seed):
     assert np.all(corr[B >= 0.01] >= 0.97)
     assert sorted(k.split(":")[0] for k in res.missing) == ["Corridor"] * 6
 
-    incorr = _model({"Room 1": ROOM, "Corridor": CORRIDOR, "Room 2": EXTRA}, jitter=0.005, rng=rng)
+    incorr = room_model({"Room 1": ROOM, "Corridor": CORRIDOR, "Room 2": EXTRA}, jitter=0.005, rng=rng)
     res = evaluate(incorr, REF)
     share = _wall_area(incorr, {"Room 1", "Corridor"}) / _wall_area(incorr)
     comp, corr = res.curve("completeness", "wall"), res.curve("correctness", "wall")
@@ -106,7 +85,7 @@ def test_duplicated_source_surfaces_count_once():
 def test_tilted_surface_counts_only_inside_buffer():
     # a wall tilted about a horizontal axis by atan(0.1/2.5): its top is 10 cm off,
     # so a buffer of b keeps the lower b/0.1 of it
-    ref = _model({"Room 1": ROOM})
+    ref = room_model({"Room 1": ROOM})
     v = np.array(ref["Room 1"].geometry.vertices)
     top_west = (v[:, 0] == 0) & (v[:, 2] == H)
     v[top_west, 0] -= 0.1
@@ -130,14 +109,14 @@ def test_visibility_from_scan_excludes_unscanned_surfaces():
     vis = {k: v["visible"] for k, v in ann.items()}
     assert all(v == (k.split(":")[0] == "Room 1") for k, v in vis.items())
     assert min(v["point_on_face"] for k, v in ann.items() if vis[k]) > 0.9
-    incomp = _model({"Room 1": ROOM})
+    incomp = room_model({"Room 1": ROOM})
     res = evaluate(incomp, REF, visible=vis)
     np.testing.assert_allclose(res.curve("completeness"), 1.0, atol=1e-9)
     assert res.missing == []
 
 
 def test_outputs(tmp_path):
-    src = _model({"Room 1": _grow(ROOM, 0.05, "wsn"), "Corridor": CORRIDOR})
+    src = room_model({"Room 1": grow(ROOM, 0.05, "wsn"), "Corridor": CORRIDOR})
     res = evaluate(src, REF)
     paths = write_evaluation_outputs(res, tmp_path, title="test")
     d = json.load(open(paths["json"]))
@@ -188,7 +167,6 @@ def test_load_model_errors(tmp_path):
 # ------------------------------------------------------------------ the eval_demo preset
 @pytest.fixture(scope="module")
 def eval_demo():
-    synthetic = pytest.importorskip("engine.synthetic")
     return synthetic.preset("eval_demo", seed=0, target_points=5000)
 
 

@@ -5,10 +5,10 @@ import subprocess
 import sys
 
 import pytest
+from scenes import DATA, ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-pytestmark = pytest.mark.slow  # each test starts Blender and runs a whole pipeline (5-10 s)
+pytestmark = [pytest.mark.slow, pytest.mark.blender]  # each starts Blender, runs a whole pipeline (5-10 s)
 
 
 def _run(script, args, timeout=300):
@@ -63,7 +63,7 @@ def test_demo_writes_blend_summary_and_preview(tmp_path):
 def test_batch_reports_a_bad_file_and_exits_non_zero(tmp_path):
     bad = tmp_path / "broken.ply"
     bad.write_bytes(b"not a ply at all")
-    good = os.path.join(ROOT, "tests", "data", "room_scan2.pcd")
+    good = os.path.join(DATA, "room_scan2.pcd")
     out = tmp_path / "out"
     proc = _run(os.path.join(ROOT, "scripts", "batch.py"),
                 [str(bad), good, "--out", str(out), "--resolution", "60"])

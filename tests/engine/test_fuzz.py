@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from engine.cli import main
+from scenes import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 PLY_XYZ = b"property float x\nproperty float y\nproperty float z\n"
 

@@ -4,8 +4,8 @@ import ast
 import os
 
 import networkx as nx
+from scenes import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MAX_LINES = 800
 
 

@@ -6,6 +6,7 @@ import pytest
 
 from engine import BuildingModel, __version__
 from engine.cli import build_parser, main
+from scenes import DATA
 
 
 def test_help_lists_every_command(capsys):
@@ -71,9 +72,8 @@ def test_convert_missing_file_exit_code(tmp_path, capsys):
 def test_segment_writes_ply_and_json_and_names_the_bad_file(tmp_path, capsys):
     from engine.io import read_point_cloud
 
-    data = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
     out = tmp_path / "seg"
-    code = main(["segment", os.path.join(data, "room_scan1.pcd"), str(tmp_path / "missing.ply"), "-o", str(out),
+    code = main(["segment", os.path.join(DATA, "room_scan1.pcd"), str(tmp_path / "missing.ply"), "-o", str(out),
                  "--set", "generic.cells.min_wall_area=0.7", "--quiet"])
     assert code == 1  # the missing file fails, the scan is still written
     assert "missing.ply" in capsys.readouterr().err
@@ -91,8 +91,7 @@ def test_segment_writes_ply_and_json_and_names_the_bad_file(tmp_path, capsys):
 
 
 def test_segment_voxel_and_bad_key(tmp_path, capsys):
-    data = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
-    scan = os.path.join(data, "room_scan1.pcd")
+    scan = os.path.join(DATA, "room_scan1.pcd")
     assert main(["segment", scan, "-o", str(tmp_path / "a"), "--set", "preprocess.nope=1"]) == 2
     assert "preprocess.nope" in capsys.readouterr().err
     working = []

@@ -16,6 +16,7 @@ import pytest
 from engine.errors import FormatError, IndoorError
 from engine.io import ReadParams, lzf_decompress, read_point_cloud, write_ply
 from engine.pointcloud import PointCloud
+from scenes import ROOT
 
 XYZ = "property float x\nproperty float y\nproperty float z\n"
 PEAK_LIMIT = 32 << 20
@@ -325,9 +326,8 @@ def _read_isolated(path):
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
-    proc = subprocess.run([sys.executable, "-c", _ISOLATED, str(path)], cwd=root, env=env,
+    proc = subprocess.run([sys.executable, "-c", _ISOLATED, str(path)], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL, check=False)
     assert proc.returncode == 0, (proc.returncode, proc.stderr[-2000:])
     import json

@@ -9,7 +9,7 @@ from engine.grammar.generic import storey_cells
 from engine.grammar.params import CellParams, CoverageParams
 from engine.pipeline import preprocess
 from engine.synthetic import preset
-from seg_scenes import match_planes, room_coverage, truth_walls
+from scenes.segmentation import match_planes, room_coverage, truth_walls
 
 POINTS = 250_000
 

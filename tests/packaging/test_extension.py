@@ -13,8 +13,8 @@ import tomllib
 import zipfile
 
 import pytest
+from scenes import DATA, ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _extension_script():
@@ -176,7 +176,7 @@ def test_engine_runs_with_only_the_manifest_wheels():
     wheels = [w.lstrip("./") for w in manifest["wheels"] if ext.wheel_platform(w) in (None, here)]
     if not all(os.path.isfile(os.path.join(ROOT, w)) for w in wheels):
         pytest.skip("the manifest's wheels are not downloaded (make wheels)")
-    out = ext.probe(os.path.join(ROOT, "tests", "data", "room_scan1.pcd"))
+    out = ext.probe(os.path.join(DATA, "room_scan1.pcd"))
     assert out["not_loaded"] == []
     assert {"open3d", "ifcopenshell", "scipy", "matplotlib", "pye57", "laspy"} <= set(out["loaded"])
 
@@ -233,6 +233,7 @@ def _blender_command(script, args):
     return [sys.executable, script, *args]  # the bpy module: a fresh Python
 
 
+@pytest.mark.blender
 def test_install_zip_like_a_user_in_a_throwaway_home(tmp_path):
     pytest.importorskip("bpy")
     zip_path = ext.build(str(tmp_path / "dist"), with_wheels=False)
@@ -253,7 +254,7 @@ def test_install_zip_like_a_user_in_a_throwaway_home(tmp_path):
     script = tmp_path / "install_check.py"
     script.write_text(_INSTALL_SCRIPT)
     report = tmp_path / "report.json"
-    scan = os.path.join(ROOT, "tests", "data", "room_scan1.pcd")
+    scan = os.path.join(DATA, "room_scan1.pcd")
     proc = subprocess.run(_blender_command(str(script), [zip_path, scan, str(report)]), env=env,
                           cwd=str(tmp_path), stdin=subprocess.DEVNULL, capture_output=True, text=True,
                           timeout=240)

@@ -13,8 +13,8 @@ import json
 
 import numpy as np
 import pytest
-from test_change_detection import _removed_faces, old_model
 
+from engine import synthetic
 from engine.change import (
     EXISTING,
     NEW,
@@ -26,8 +26,8 @@ from engine.change import (
 )
 from engine.cli.changes import read_matrix
 from engine.errors import FormatError, InputError
-
-synthetic = pytest.importorskip("engine.synthetic")
+from engine.io import read_point_cloud, write_ply
+from scenes.change import old_model, removed_faces
 
 SHIFT = np.array([400.0, -300.0, 0.0])
 """500 m away."""
@@ -74,7 +74,7 @@ def test_change_demo_registered(demo, demo_result):
     assert reg.rmse < 0.01 and reg.fitness_distance == 0.05
     assert np.abs(reg.transform - np.eye(4)).max() < 5e-3
     # the known removed wall's faces are still found, the new walls too
-    removed = _removed_faces(demo.truth)
+    removed = removed_faces(demo.truth)
     assert len(removed) == 2 and set(res.redundant) == removed
     assert sum(e["kind"] == "wall" for e in res.elements) >= 1
     s = res.summary()
@@ -98,7 +98,7 @@ def test_scan_500_m_away_registered_by_the_coarse_start(demo, demo_result):
     assert np.linalg.norm(got - want, axis=1).max() < 0.01
     # the same result: fitness within 0.02, the same redundant faces, ≥ 99 % of the point types
     assert abs(reg.fitness - demo_result.registration.fitness) < 0.02
-    assert set(res.redundant) == set(demo_result.redundant) == _removed_faces(demo.truth)
+    assert set(res.redundant) == set(demo_result.redundant) == removed_faces(demo.truth)
     assert np.mean(res.point_type == demo_result.point_type) > 0.99
     assert abs(len(res.elements) - len(demo_result.elements)) <= 1
 
@@ -136,12 +136,11 @@ def _cli(argv, capsys):
 
 @pytest.fixture(scope="module")
 def files(demo, other, tmp_path_factory):
-    io = pytest.importorskip("engine.io")
     d = tmp_path_factory.mktemp("changes_cli")
     model = d / "old.json"
     demo.truth.to_json(model)
-    io.write_ply(d / "scan.ply", demo.cloud)
-    io.write_ply(d / "other.ply", other.cloud)
+    write_ply(d / "scan.ply", demo.cloud)
+    write_ply(d / "other.ply", other.cloud)
     return d, model, d / "scan.ply", d / "other.ply"
 
 
@@ -157,7 +156,6 @@ def test_cli_registered(files, capsys):
 
 
 def test_cli_unregistered_exit_1_and_force(files, capsys):
-    io = pytest.importorskip("engine.io")
     d, model, _, other = files
     out = d / "unregistered"
     code, text, err = _cli(["changes", str(model), str(other), "-o", str(out)], capsys)
@@ -168,7 +166,7 @@ def test_cli_unregistered_exit_1_and_force(files, capsys):
     reg = s["registration"]
     assert reg["status"] == "unregistered" and reg["fitness"] < 0.4 and reg["rmse_m"] is not None
     assert s["redundant"] == [] and s["new"] == 0 and s["new_elements"] == 0
-    back = io.read_point_cloud(out / "classified_points.ply")
+    back = read_point_cloud(out / "classified_points.ply")
     assert np.all(back.fields["type"] == UNCLASSIFIED)
     # --force: changes reported, the status still unregistered, exit 0
     out = d / "forced"
@@ -178,7 +176,7 @@ def test_cli_unregistered_exit_1_and_force(files, capsys):
     s = _json(out / "summary.json")
     assert s["registration"]["status"] == "unregistered" and s["forced"]
     assert len(s["redundant"]) > 0 and s["new"] > 0
-    back = io.read_point_cloud(out / "classified_points.ply")
+    back = read_point_cloud(out / "classified_points.ply")
     assert set(np.unique(back.fields["type"])) <= {EXISTING, NEW}
 
 

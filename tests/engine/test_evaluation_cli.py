@@ -10,8 +10,9 @@ import pytest
 from engine.cli.changes import add_changes, read_matrix
 from engine.cli.evaluate import add_evaluate
 from engine.errors import FormatError, IndoorError, InputError
-from test_change_detection import changed_scan, old_model
-from test_evaluation import CORRIDOR, REF, ROOM, _grow, _model
+from engine.io import read_point_cloud, write_ply
+from scenes.change import changed_scan, old_model
+from scenes.evaluation import CORRIDOR, REF, ROOM, grow, room_model
 
 
 def _parser():
@@ -39,7 +40,7 @@ def _run(argv):
 def test_evaluate_cli(tmp_path, capsys):
     src = tmp_path / "inacc.json"
     ref = tmp_path / "ref.json"
-    _model({"Room 1": _grow(ROOM, 0.05, "wsn"), "Corridor": _grow(CORRIDOR, 0.05, "esn")}).to_json(src)
+    room_model({"Room 1": grow(ROOM, 0.05, "wsn"), "Corridor": grow(CORRIDOR, 0.05, "esn")}).to_json(src)
     REF.to_json(ref)
     out = tmp_path / "out"
     assert _run(["evaluate", str(src), str(ref), "-o", str(out), "--json"]) == 0
@@ -76,19 +77,18 @@ def test_evaluate_cli_bad_input(tmp_path):
 
 
 def test_changes_cli(tmp_path, capsys):
-    io = pytest.importorskip("engine.io")
     model = tmp_path / "old.json"
     old_model().to_json(model)
     scan = changed_scan(density=250.0, seed=1)
     path = tmp_path / "scan.ply"
-    io.write_ply(path, scan)
+    write_ply(path, scan)
     out = tmp_path / "changes"
     assert _run(["changes", str(model), str(path), "-o", str(out), "--json"]) == 0
     s = json.loads(capsys.readouterr().out)
     assert s["redundant"] == ["room_A:3", "room_B:5"]
     assert s["new_walls"] == 2
     assert s["registration"]["residual_m"] < 0.01
-    back = io.read_point_cloud(out / "classified_points.ply")
+    back = read_point_cloud(out / "classified_points.ply")
     assert len(back) == len(scan)
     t = back.fields["type"].astype(int)
     truth = scan.fields["new"] == 1

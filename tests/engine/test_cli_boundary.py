@@ -25,6 +25,7 @@ def _without_timestamp(text: str) -> str:
     return head + "FILE_NAME(" + name + "," + after
 
 
+@pytest.mark.slow  # four whole conversions
 def test_same_input_and_seed_give_the_same_ifc(scan, tmp_path, monkeypatch, capsys):
     outs = [tmp_path / "a", tmp_path / "b"]
     for out in outs:

@@ -13,6 +13,8 @@ bpy = pytest.importorskip("bpy")
 
 import blender_util as bu  # noqa: E402
 
+pytestmark = pytest.mark.blender
+
 
 @pytest.fixture(scope="module")
 def addon():

@@ -1,10 +1,14 @@
-"""Tiny synthetic scenes for the segmentation tests: points sampled on box rooms with noise.
+"""Tiny scenes for the segmentation tests: points sampled on box rooms with noise, and the
+checks of found planes and cells against a true model.
 
 Independent of ``engine.synthetic`` so the segmentation tests check the algorithms on
 scenes whose truth is written out here.
 """
 import numpy as np
+import shapely
+from shapely.geometry import Polygon
 
+from engine.model import ShapeType
 from engine.pointcloud import PointCloud
 
 
@@ -99,71 +103,6 @@ def rotation(yaw, tilt_x=0.0, tilt_y=0.0):
     return m
 
 
-def _lzf_decompress(data: bytes, out_len: int) -> bytes:
-    out = bytearray(out_len)
-    i = o = 0
-    n = len(data)
-    while i < n:
-        ctrl = data[i]
-        i += 1
-        if ctrl < 32:
-            ln = ctrl + 1
-            out[o:o + ln] = data[i:i + ln]
-            i += ln
-            o += ln
-        else:
-            ln = ctrl >> 5
-            ref = o - ((ctrl & 0x1F) << 8) - 1
-            if ln == 7:
-                ln += data[i]
-                i += 1
-            ref -= data[i]
-            i += 1
-            ln += 2
-            for _ in range(ln):  # byte-wise: the copy may overlap
-                out[o] = out[ref]
-                o += 1
-                ref += 1
-    return bytes(out)
-
-
-def read_room_scan(path):
-    """The real PCL room scan as a PointCloud: engine.io when it exists, else a minimal
-    reader of x y z float32 binary_compressed PCD (test helper only)."""
-    try:
-        from engine.io import read_point_cloud
-    except ImportError:
-        read_point_cloud = None
-    if read_point_cloud is not None:
-        return read_point_cloud(path)
-    import struct
-
-    with open(path, "rb") as f:
-        raw = f.read()
-    header, pos = {}, 0
-    while True:
-        end = raw.index(b"\n", pos)
-        line = raw[pos:end].decode("ascii").strip()
-        pos = end + 1
-        if line.startswith("#") or not line:
-            continue
-        key, *vals = line.split()
-        header[key] = vals
-        if key == "DATA":
-            break
-    n = int(header["POINTS"][0])
-    assert header["FIELDS"][:3] == ["x", "y", "z"] and header["DATA"][0] == "binary_compressed"
-    comp, size = struct.unpack("<II", raw[pos:pos + 8])
-    data = _lzf_decompress(raw[pos + 8:pos + 8 + comp], size)
-    nf = len(header["FIELDS"])
-    cols = [np.frombuffer(data, "<f4", count=n, offset=4 * n * k) for k in range(min(nf, 3))]
-    xyz = np.column_stack(cols).astype(np.float64)
-    ok = np.isfinite(xyz).all(axis=1)
-    vp = [float(v) for v in header.get("VIEWPOINT", ["0"] * 3)[:3]]
-    return PointCloud(xyz=xyz[ok], scanner_positions=np.array([vp]), source=str(path),
-                      dropped_nonfinite=int((~ok).sum()))
-
-
 # ----------------------------------------------------------------------------- evaluation
 def truth_walls(truth, transform, cloud_aligned, label_wall=0, band=0.03, grid=0.1):
     """Inner wall faces of the true rooms in the aligned frame with their visible share.
@@ -172,8 +111,6 @@ def truth_walls(truth, transform, cloud_aligned, label_wall=0, band=0.03, grid=0
     share is the fraction of the face's 10 cm (length × height) bins holding wall-labelled
     points within ``band`` of it.
     """
-    from engine.model import ShapeType
-
     inv = np.linalg.inv(transform)
     r, t = inv[:3, :3], inv[:3, 3]
     lab = cloud_aligned.fields.get("label")
@@ -244,9 +181,6 @@ def room_coverage(cells, truth, transform, storey=0):
     """For every true room of ``storey``: (name, covered share of its floor area by the union of
     the cells (shapely polygons) lying mostly inside it, area of that union outside the room
     as a share of the room's area)."""
-    import shapely
-    from shapely.geometry import Polygon
-
     inv = np.linalg.inv(transform)
     out = []
     for s in truth.spaces:

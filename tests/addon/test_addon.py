@@ -6,7 +6,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-import blender_util as bu  # noqa: E402  (tests/ is on the path under pytest's rootdir rules)
+import blender_util as bu  # noqa: E402  (tests/addon/ is on the path: pytest's prepend import mode)
+
+pytestmark = pytest.mark.blender
 
 
 @pytest.fixture(scope="module")

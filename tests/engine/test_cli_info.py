@@ -8,8 +8,9 @@ import pytest
 from engine.cli import main
 from engine.io import write_ply
 from engine.pointcloud import PointCloud
+from scenes import DATA
 
-SCAN1 = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "room_scan1.pcd")
+SCAN1 = os.path.join(DATA, "room_scan1.pcd")
 
 
 @pytest.fixture

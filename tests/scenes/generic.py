@@ -1,4 +1,4 @@
-"""Non-Manhattan synthetic scenes with known rooms for the generic-grammar tests.
+"""Non-Manhattan scenes with known rooms for the generic-method tests (cells, rjMCMC).
 
 Written out here (independent of ``engine.synthetic``) so the rjMCMC tests check the search on
 scenes whose truth is explicit: rooms are the pieces of a partition shrunk by half the wall
@@ -8,6 +8,7 @@ inward normals and Gaussian noise along the normal.
 
 import numpy as np
 import shapely
+import shapely.affinity as aff
 
 from engine.model import BuildingModel, Polyhedron, Shape, ShapeType, Storey
 from engine.pointcloud import PointCloud
@@ -32,8 +33,6 @@ def skew_rooms(thickness=0.2, angle=23.0):
     pieces = [shapely.box(0, 0, 5, 8), shapely.Polygon([(5, 0), (12, 0), (12, 3), (5, 4.5)]),
               shapely.Polygon([(5, 4.5), (12, 3), (12, 8), (8.5, 8), (8.5, 4.5 - 3.5 * 1.5 / 7)]),
               shapely.Polygon([(5, 4.5), (8.5, 4.5 - 3.5 * 1.5 / 7), (8.5, 8), (5, 8)])]
-    import shapely.affinity as aff
-
     return [aff.rotate(p.buffer(-thickness / 2, join_style="mitre"), angle, origin=(0, 0)) for p in pieces]
 
 
@@ -107,15 +106,3 @@ def match_rooms(polys, rooms):
                 best = max(best, i / r.union(p).area)
         out.append(best)
     return out
-
-
-def test_scene_geometry():
-    rooms = hexagon_rooms()
-    assert len(rooms) == 7
-    cloud = sample_rooms(rooms, density=20.0, seed=1)
-    lab = cloud.fields["label"]
-    assert set(np.unique(lab)) == {0, 1, 2}
-    # wall points lie on room outlines, within the noise
-    w = cloud.xyz[lab == 0][:200]
-    d = [min(r.exterior.distance(shapely.Point(p[:2])) for r in rooms) for p in w]
-    assert max(d) < 0.03

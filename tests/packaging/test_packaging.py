@@ -5,8 +5,8 @@ import re
 import tomllib
 
 import engine
+from scenes import ROOT
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BLENDER_MODULES = {"bpy", "bmesh", "mathutils", "gpu", "bl_ui", "bl_operators", "bpy_extras"}
 
 

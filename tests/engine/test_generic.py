@@ -1,6 +1,6 @@
 """The generic (non-Manhattan) pipeline end to end: scan → cells → rjMCMC → model.
 
-Scenes: ``test_generic_scenes`` (hand-written, exact truth) and the ``syn_house`` preset of
+Scenes: ``scenes.generic`` (hand-written, exact truth) and the ``syn_house`` preset of
 ``engine.synthetic`` (realistic terrestrial scan with furniture). Quality is measured with
 ``engine.evaluation.evaluate`` (completeness / correctness / accuracy at b = 10 cm).
 """
@@ -17,7 +17,7 @@ from engine.pipeline import ChoiceParams, _cluster_params, manhattan_score, prep
 from engine.segmentation.params import PreprocessParams
 from engine.model import BuildingModel, ShapeType
 from engine.pointcloud import PointCloud
-from test_generic_scenes import hexagon_rooms, match_rooms, sample_rooms, skew_rooms, truth_model
+from scenes.generic import hexagon_rooms, match_rooms, sample_rooms, skew_rooms, truth_model
 
 
 def _scores(model, truth):

@@ -8,9 +8,8 @@ import ifcopenshell.util.element  # noqa: E402
 import ifcopenshell.validate  # noqa: E402
 from shapely.geometry import Polygon  # noqa: E402
 
+from engine import synthetic  # noqa: E402
 from engine.ifc import read_ifc, write_ifc  # noqa: E402
-
-synthetic = pytest.importorskip("engine.synthetic")
 
 
 @pytest.mark.parametrize("name", synthetic.PRESETS)

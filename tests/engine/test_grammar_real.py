@@ -20,8 +20,7 @@ import pytest
 from engine.grammar import ManhattanParams, reconstruct_manhattan
 from engine.io import read_point_cloud
 from engine.model import ShapeType
-
-DATA = os.path.join(os.path.dirname(__file__), "data")
+from scenes import DATA
 
 
 _MODELS = {}

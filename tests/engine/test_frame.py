@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 
 from engine.errors import InputError, ReconstructionError
+from engine.io import read_point_cloud
 from engine.pointcloud import PointCloud
 from engine.segmentation import (UNITS, UP_AXES, check_degenerate, detect_storeys, detect_units, detect_up,
                                  normalize_frame, up_rotation)
 from engine.synthetic import preset
-from seg_scenes import read_room_scan
+from scenes import DATA
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
 POINTS = 60_000
 LABEL_FLOOR, LABEL_CEILING = 1, 2
 
@@ -204,7 +204,7 @@ def test_floor_only_millimetre_scan_needs_the_units():
 
 def test_real_room_scans_are_metres_z_up():
     for f in ("room_scan1.pcd", "room_scan2.pcd"):
-        cloud = read_room_scan(os.path.join(DATA, f))
+        cloud = read_point_cloud(os.path.join(DATA, f))
         _, rec = normalize_frame(cloud)
         assert rec["units"] == "m" and rec["up"] == "z", rec["evidence"]
 
@@ -212,7 +212,7 @@ def test_real_room_scans_are_metres_z_up():
 @pytest.mark.parametrize("unit", ["mm", "ft"])
 def test_real_room_scan_in_other_units(unit):
     # a real, 1° tilted scan with a noisy floor: levelled and measured layer by layer
-    cloud = read_room_scan(os.path.join(DATA, "room_scan1.pcd"))
+    cloud = read_point_cloud(os.path.join(DATA, "room_scan1.pcd"))
     _, rec = normalize_frame(_in_units(cloud, unit))
     assert rec["units"] == unit and rec["up"] == "z", rec["evidence"]
 

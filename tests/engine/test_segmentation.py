@@ -5,12 +5,13 @@ import numpy as np
 import pytest
 
 from engine.errors import EmptyCloudError, ReconstructionError
+from engine.io import read_point_cloud
 from engine.pointcloud import PointCloud
 from engine.segmentation import (CLASS_HORIZONTAL, CLASS_WALL, align_manhattan, classify_points, clean,
                                  detect_storeys, estimate_normals, voxel_downsample)
-from seg_scenes import read_room_scan, rotation, two_room_office, two_storey
-
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+from engine.synthetic import preset
+from scenes import DATA
+from scenes.segmentation import rotation, two_room_office, two_storey
 
 
 def _working(cloud):
@@ -26,14 +27,6 @@ def _yaw_error_deg(rot_applied, transform_back):
     yaw = (yaw + 45) % 90 - 45
     tilt = np.degrees(np.arccos(np.clip(r[2, 2], -1, 1)))
     return abs(yaw), tilt
-
-
-def _synthetic_available():
-    try:
-        from engine.synthetic import preset  # noqa: F401
-    except Exception:
-        return False
-    return True
 
 
 def test_voxel_downsample_keeps_attributes_and_maps_back():
@@ -62,10 +55,6 @@ def test_alignment_recovers_random_yaw_and_tilt(yaw_deg, tx, ty):
 
 
 def test_alignment_of_synthetic_office_within_half_degree():
-    if not _synthetic_available():
-        pytest.skip("engine.synthetic not available yet")
-    from engine.synthetic import preset
-
     scene = preset("office_mw", seed=1, target_points=200_000)
     rng = np.random.default_rng(7)
     yaw = rng.uniform(-np.pi, np.pi)
@@ -78,7 +67,7 @@ def test_alignment_of_synthetic_office_within_half_degree():
 
 
 def test_room_scan_alignment_levels_floor_and_axis_aligns_walls():
-    cloud = read_room_scan(os.path.join(DATA, "room_scan1.pcd"))
+    cloud = read_point_cloud(os.path.join(DATA, "room_scan1.pcd"))
     w = _working(cloud)
     aligned, back, res = align_manhattan(w, rng=0, return_result=True)
     # the scan is tilted by about 1 degree (its floor by 1.0°, its ceiling by 0.64°; floor
@@ -109,10 +98,6 @@ def test_storeys_of_two_storey_scene_within_3cm():
 
 
 def test_storeys_of_synthetic_two_storey_office_within_3cm():
-    if not _synthetic_available():
-        pytest.skip("engine.synthetic not available yet")
-    from engine.synthetic import preset
-
     scene = preset("two_storey_office", seed=0, target_points=300_000)
     storeys = detect_storeys(_working(scene.cloud))
     truth = sorted(scene.truth.storeys, key=lambda s: s.floor_z)
@@ -122,7 +107,7 @@ def test_storeys_of_synthetic_two_storey_office_within_3cm():
 
 
 def test_room_scan_storey_is_not_the_desk():
-    cloud = read_room_scan(os.path.join(DATA, "room_scan1.pcd"))
+    cloud = read_point_cloud(os.path.join(DATA, "room_scan1.pcd"))
     aligned, _ = align_manhattan(_working(cloud), rng=0)
     storeys = detect_storeys(aligned)
     assert len(storeys) == 1
@@ -167,7 +152,7 @@ def test_room_scan_wall_planes_are_axis_aligned():
     walls of room_scan1 are themselves 0.72° from parallel)."""
     from engine.pipeline import align, preprocess
 
-    cloud = read_room_scan(os.path.join(DATA, "room_scan1.pcd"))
+    cloud = read_point_cloud(os.path.join(DATA, "room_scan1.pcd"))
     res = align(preprocess(cloud, rng=0), rng=0)
     rot = res.transform[:3, :3]  # aligned -> input
     big = [p for p in res.planes if p.kind == "wall" and p.area >= 4.0]

@@ -7,10 +7,9 @@ the wall between Rooms 1 and 2 removed, two new walls making a storage room in R
 import numpy as np
 import pytest
 
+from engine import synthetic
 from engine.change import NEW, detect_changes, transform_model
-from test_change_detection import _precision_recall, _removed_faces, _rot_z
-
-synthetic = pytest.importorskip("engine.synthetic")
+from scenes.change import precision_recall, removed_faces, rot_z
 
 
 @pytest.fixture(scope="module")
@@ -22,13 +21,13 @@ def _check(res, cloud, model):
     truth = cloud.fields["new"] == 1
     assert truth.sum() > 1000
     # new structure = candidate elements spanning floor to ceiling
-    prec, rec = _precision_recall(res.new_structure(), truth)
+    prec, rec = precision_recall(res.new_structure(), truth)
     assert prec >= 0.97 and rec >= 0.97, (prec, rec)
     # point level: every new-wall point is new; among non-furniture points, few false alarms
     structural = cloud.fields["label"] != synthetic.LABEL_CLUTTER
-    prec, rec = _precision_recall((res.point_type == NEW)[structural], truth[structural])
+    prec, rec = precision_recall((res.point_type == NEW)[structural], truth[structural])
     assert prec >= 0.97 and rec >= 0.97, (prec, rec)
-    removed = _removed_faces(model)
+    removed = removed_faces(model)
     assert len(removed) == 2
     assert set(res.redundant) == removed
     assert res.registration.residual < 0.01
@@ -41,7 +40,7 @@ def test_change_demo_registered(demo):
 
 
 def test_change_demo_misregistered_model(demo):
-    wrong = _rot_z(5.0, (0.3, 0.0, 0.0))
+    wrong = rot_z(5.0, (0.3, 0.0, 0.0))
     moved = transform_model(demo.truth, wrong)
     res = detect_changes(moved, demo.cloud)
     pts = demo.cloud.xyz[::50]
@@ -57,6 +56,6 @@ def test_change_demo_mobile_noise_automatic_threshold():
     res = detect_changes(scene.truth, scene.cloud)
     assert 0.07 <= res.distance_threshold <= 0.15
     truth = scene.cloud.fields["new"] == 1
-    prec, rec = _precision_recall(res.new_structure(), truth)
+    prec, rec = precision_recall(res.new_structure(), truth)
     assert prec >= 0.95 and rec >= 0.95, (prec, rec)
-    assert set(res.redundant) == _removed_faces(scene.truth)
+    assert set(res.redundant) == removed_faces(scene.truth)
