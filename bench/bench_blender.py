@@ -11,7 +11,7 @@ few repeats on a fresh scene each:
 * ``evaluate_s``  — the first depsgraph evaluation (Geometry Nodes "Mesh to Points");
 * ``operator_s``  — ``bpy.ops.indoor.import_scan`` end to end (engine read included).
 
-Target (PRODUCT.md "millions of points load in seconds"): 1M points into Blender in ≤ 3 s.
+Target ("millions of points load in seconds"): 1M points into Blender in ≤ 3 s.
 
 The same process also times ``bridge.model_to_objects`` on the true model of a 20-room grid
 plan (engine.synthetic: rooms, walls, doors, slabs; target ≤ 1 s), a second build that

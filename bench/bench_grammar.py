@@ -1,10 +1,10 @@
 """Manhattan grammar and topology on ``office_mw`` (1M points; quick: 200k).
 
-Target (grammar issue): grammar and topology ≤ 10 s after preprocessing on the 2-core
+Target: grammar and topology ≤ 10 s after preprocessing on the 2-core
 machine. Reports the preprocessing time (normals, Manhattan alignment, storeys) apart
 from the grammar's own steps (levels, place + point-on-face index + classify, merge and
 topology), the time of a manual reclassification and a door insertion (each re-derives
-the topology), the peak resident memory, and the quality figures of the issue: share of
+the topology), the peak resident memory, and the quality figures: share of
 cuboids typed right, room count, side-face completeness/correctness at b = 10 cm (when
 ``engine.evaluation`` is present) and the median |distance| of wall points to the model.
 """

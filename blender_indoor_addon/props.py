@@ -9,8 +9,8 @@ from . import bridge
 
 METHOD_ITEMS = (
     ("auto", "Auto", "Manhattan grammar when the walls are mostly orthogonal, else generic"),
-    ("manhattan", "Manhattan", "Shape grammar for orthogonal walls (SPEC.md §2)"),
-    ("generic", "Generic", "Cell decomposition and rjMCMC for any wall directions (SPEC.md §3)"),
+    ("manhattan", "Manhattan", "Shape grammar for orthogonal walls (docs/method.md §2)"),
+    ("generic", "Generic", "Cell decomposition and rjMCMC for any wall directions (docs/method.md §3)"),
 )
 """Reconstruction methods (ids of ``engine.reconstruct.METHODS``)."""
 

@@ -51,7 +51,7 @@ _VERTICAL_NZ = 0.17364817766693033  # sin(10°): |n_z| below this is a vertical 
 
 
 class ShapeType(str, enum.Enum):
-    """Semantic type of a shape (SPEC.md §2: ∅, interior space, exterior space, wall)."""
+    """Semantic type of a shape (docs/method.md §2: ∅, interior space, exterior space, wall)."""
 
     NONE = "none"
     INTERIOR = "interior"
@@ -331,6 +331,7 @@ class Shape:
 
     @property
     def bounds(self) -> np.ndarray:
+        """(2, 3) float64 — axis-aligned min and max corner, metres."""
         return self.geometry.bounds
 
     @property
@@ -339,6 +340,7 @@ class Shape:
         return self.geometry.vertices.mean(axis=0)
 
     def footprint(self) -> Optional[np.ndarray]:
+        """(k, 2) float64 counter-clockwise footprint of a vertical prism, metres, else None."""
         return self.geometry.footprint()
 
     def to_dict(self) -> dict:
@@ -411,6 +413,7 @@ class Storey:
 
     @property
     def height(self) -> float:
+        """Floor-to-ceiling height, metres."""
         return self.ceiling_z - self.floor_z
 
     def to_dict(self) -> dict:

@@ -24,12 +24,12 @@ from .progress import Progress
 from .quantities import Radians, Ratio
 from .segmentation.alignment import AlignmentResult, align_manhattan
 from .segmentation.classify import CLASS_HORIZONTAL, classify_points
-from .segmentation.cleaning import clean, drop_nonfinite, estimate_normals, voxel_downsample
+from .segmentation.cleaning import building_points, clean, drop_nonfinite, estimate_normals, voxel_downsample
 from .segmentation.params import PreprocessParams
 from .segmentation.planes import extract_planes
 from .segmentation.storeys import detect_storeys
 
-__all__ = ["ChoiceParams", "Prepared", "preprocess", "align", "manhattan_score", "choose_method",
+__all__ = ["ChoiceParams", "Prepared", "preprocess", "align", "full_cloud_normals", "manhattan_score", "choose_method",
            "normal_tilt_spread"]
 
 log = logging.getLogger(__name__)
@@ -52,7 +52,8 @@ class Prepared:
 
     Attributes
     ----------
-    cloud : PointCloud — the finite input points.
+    cloud : PointCloud — the input points that are finite and belong to the building
+        (:func:`engine.segmentation.cleaning.building_points`).
     working : PointCloud — one point per voxel, with normals and the fields
         ``segment_class`` (int8, :mod:`engine.segmentation.classify`) and ``plane`` (int32
         plane id, -1 for none).
@@ -67,6 +68,7 @@ class Prepared:
     transform : (4, 4) float64 aligned → input, or None before :func:`align`.
     alignment : AlignmentResult or None.
     timings : dict of str → seconds.
+    cleaning : dict — input points, and the non-finite and stray points (far clusters) removed.
     """
 
     cloud: PointCloud
@@ -81,6 +83,7 @@ class Prepared:
     transform: Optional[np.ndarray] = None
     alignment: Optional[AlignmentResult] = None
     timings: dict = field(default_factory=dict)
+    cleaning: dict = field(default_factory=dict)
     params: PreprocessParams = field(default_factory=PreprocessParams)
 
     def representative(self) -> np.ndarray:
@@ -141,7 +144,7 @@ def _storeys_of(cloud: PointCloud, labels: np.ndarray, params: PreprocessParams)
 
 
 def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(), *, rng=0,
-               planes: bool = True, progress=None, should_stop=None) -> Prepared:
+               planes: bool = True, full_normals: bool = False, progress=None, should_stop=None) -> Prepared:
     """Working cloud, normals, point clusters, storeys and (``planes``) RANSAC planes.
 
     Parameters
@@ -150,6 +153,9 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
     params : PreprocessParams
     rng : seed or numpy Generator — RANSAC draws from it (a Generator is advanced).
     planes : bool — extract planes (the generic method and ``auto`` need them).
+    full_normals : bool — estimate the normals of every point first
+        (:func:`full_cloud_normals`, what the Manhattan grammar reads); the working cloud then
+        takes its points' normals.
 
     Raises
     ------
@@ -164,11 +170,26 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
     t0 = time.perf_counter()
     p(0.0, "working cloud")
     full = drop_nonfinite(cloud)
-    work, index, voxel = clean(full, params.clean)
-    t["working_cloud"] = time.perf_counter() - t0
-    p.check()
+    keep, groups = building_points(full.xyz, params.clean.cluster_voxel, params.clean.min_cluster_share)
+    cleaning = {"points": len(cloud), "nonfinite_removed": len(cloud) - len(full),
+                "stray_points_removed": int((~keep).sum()), "stray_clusters_removed": groups}
+    if not keep.all():
+        log.info("%s: %d points in %d far clusters removed", cloud.source or "cloud", (~keep).sum(), groups)
+        full = full.subset(keep)
+    t["strays"] = time.perf_counter() - t0
     t1 = time.perf_counter()
     spacing = estimate_spacing(full.xyz)
+    t["spacing"] = time.perf_counter() - t1
+    if full_normals:  # the working cloud then shares them
+        t1 = time.perf_counter()
+        p(0.0, "normals")
+        full = full_cloud_normals(full, params, spacing)
+        t["normals_full"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    work, index, voxel = clean(full, params.clean)
+    t["working_cloud"] = time.perf_counter() - t1
+    p.check()
+    t1 = time.perf_counter()
     if work.normals is None:
         p(0.05, "normals")
         npar = params.normals
@@ -193,23 +214,33 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
     log.info("preprocess %s: %d -> %d working points, %d storeys, %d planes (%s)", cloud.source or "cloud",
              len(cloud), len(work), len(storeys), len(found_planes), {k: round(v, 2) for k, v in t.items()})
     return Prepared(cloud=full, working=work, working_index=index, voxel=voxel, spacing=spacing, labels=labels,
-                    storeys=storeys, storeys_found=found, planes=found_planes, timings=t, params=params)
+                    storeys=storeys, storeys_found=found, planes=found_planes, timings=t, cleaning=cleaning,
+                    params=params)
 
 
 def align(prep: Prepared, *, rng=0, cloud: Optional[PointCloud] = None) -> Prepared:
     """``prep`` with the Manhattan alignment (transform aligned → input) from the normals of
-    ``cloud`` (default: every input point with its working point's normal), which becomes
-    ``prep.cloud``."""
+    ``cloud`` (the full cloud with its normals, which becomes ``prep.cloud``), or of the
+    working cloud when ``cloud`` is None."""
     if prep.transform is not None:
         return prep
     t0 = time.perf_counter()
-    full = prep.cloud if cloud is None else cloud
-    if full.normals is None:
-        full = full.with_(normals=prep.to_full(prep.working.normals))
-    _, transform, res = align_manhattan(full, prep.params.align, rng=rng, normal_params=prep.params.normals,
-                                        return_result=True)
-    return replace(prep, cloud=full, transform=transform, alignment=res,
+    _, transform, res = align_manhattan(prep.working if cloud is None else cloud, prep.params.align, rng=rng,
+                                        normal_params=prep.params.normals, return_result=True)
+    return replace(prep, cloud=prep.cloud if cloud is None else cloud, transform=transform, alignment=res,
                    timings={**prep.timings, "align": time.perf_counter() - t0})
+
+
+def full_cloud_normals(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
+                       spacing: Optional[float] = None) -> PointCloud:
+    """``cloud`` with PCA normals of every point (the Manhattan grammar reads them), over at
+    least ``normals.radius_spacings`` point spacings (far walls of a terrestrial scan are
+    sparse); unchanged when it has normals."""
+    if cloud.normals is not None:
+        return cloud
+    npar = params.normals
+    spacing = estimate_spacing(cloud.xyz) if spacing is None else spacing
+    return estimate_normals(cloud, replace(npar, radius=max(npar.radius, npar.radius_spacings * spacing)))
 
 
 def manhattan_score(planes, angle_tolerance: float = ChoiceParams.angle_tolerance) -> float:

@@ -76,7 +76,8 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
     p = Progress.wrap(progress, should_stop)
     gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     p(0.0, "preprocessing")
-    prep = preprocess(cloud, params.preprocess, rng=gen, planes=method != "manhattan", progress=p.sub(0.0, 0.4))
+    prep = preprocess(cloud, params.preprocess, rng=gen, planes=method != "manhattan",
+                      full_normals=method == "manhattan", progress=p.sub(0.0, 0.4))
     choice = {}
     if method == "auto":
         method, score = choose_method(prep, params.choice)

@@ -1,4 +1,4 @@
-"""Change detection between a building model and a newer scan (SPEC.md §5).
+"""Change detection between a building model and a newer scan (docs/method.md §5).
 
 :func:`detect_changes` registers the scan to the model (given transform, then point-to-plane
 ICP, then a fitness check: an unregistered scan gets no change claimed), classifies each

@@ -1,4 +1,4 @@
-"""Change detection between a model and a newer scan (SPEC.md §5).
+"""Change detection between a model and a newer scan (docs/method.md §5).
 
 1. Register the scan to the model (:mod:`.registration`) and check the registration: when
    too few scan points lie on the model, or too few of those on walls on its walls, the
@@ -325,7 +325,7 @@ def _element(xyz: np.ndarray, k: int, model: BuildingModel, params: ChangeParams
 
 def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] = None, *,
                    initial: Optional[np.ndarray] = None, progress=None, should_stop=None) -> ChangeResult:
-    """Detect changes between a model and a scan (SPEC.md §5).
+    """Detect changes between a model and a scan (docs/method.md §5).
 
     Parameters
     ----------

@@ -4,13 +4,14 @@ a quality check.
 The model is turned into points sampled on its surfaces (with the surface normals) and the
 scan (voxel-downsampled) is aligned to them by open3d's point-to-plane ICP, coarse to fine
 (shrinking correspondence distances). Misregistration reads as change, so the result is
-checked (SPEC.md §5): the *fitness* is the share of (voxel-subsampled) scan points within
-``fitness_distance`` of a model surface, the *wall fitness* the same share among the points
-on vertical surfaces, and the registration is ``"unregistered"`` when either is below its
-threshold (``min_fitness``, ``min_wall_fitness``). When no initial transform was given and the check fails, a
-coarse start is tried before giving up: the scan is translated so that its centroid, or the
-centre of its bounding box, meets the model's, and ICP runs again from there (no search over
-rotations: a scan turned far from the model's frame needs an initial transform).
+checked (docs/method.md §5): the *fitness* is the share of (voxel-subsampled) scan points
+within ``fitness_distance`` of a model surface, the *wall fitness* the same share among the
+points on vertical surfaces, and the registration is ``"unregistered"`` when either is below
+its threshold (``min_fitness``, ``min_wall_fitness``). When no initial transform was given
+and the check fails, a coarse start is tried before giving up: the scan is translated so
+that its centroid, or the centre of its bounding box, meets the model's, and ICP runs again
+from there (no search over rotations: a scan turned far from the model's frame needs an
+initial transform).
 """
 from __future__ import annotations
 
@@ -65,29 +66,19 @@ class RegistrationParams:
     """A scan point within this distance of a model surface is an inlier of the quality
     check, metres (:func:`detect_changes <engine.change.detect_changes>` uses an explicit
     change threshold r instead). Fixed rather than taken from the residual, which means
-    nothing when the registration failed. 0.05 m is 10σ of a terrestrial scan's noise and
-    2.5σ of a mobile one's (σ = 2 cm: fitness 0.92 on change_demo)."""
+    nothing when the registration failed; several σ of terrestrial and of mobile scanner
+    noise alike."""
     min_fitness: float = 0.5
-    """Below this fitness the scan is *unregistered*. Measured on 60k-point synthetic scans
-    (subsampled to 0.1 m voxels, at 0.05 m, after ICP and the coarse starts). Correct
-    registrations: changed buildings 0.90 (change_demo), 0.92 (the same, mobile noise), 0.93
-    (office_mw with a partition removed); unchanged presets 0.92–0.95, and 0.79–0.89 when
-    heavily furnished (shelves on every wall, 5–18 % clutter points). Failures: 0.00 (scan
-    500 m away, no coarse start), 0.25–0.44 (change_demo turned 90° about its centre or the
-    origin, over the starts: floors and ceilings overlap), 0.18–0.37 (scans of syn_house,
-    office_mw, hexagon_hall on the change_demo model and back). So about half of a scan may
-    be off the old model (furniture, new parts) before it fails. A turn of 45° is
-    recovered by ICP."""
+    """Below this fitness the scan is *unregistered*: about half of a scan may lie off the
+    old model (furniture, new or changed parts) before the check fails, while a scan in a
+    wrong pose or of another building leaves most of its points off the model's surfaces."""
     min_wall_fitness: float = 0.4
     """Below this *wall fitness* (the fitness of the scan points on vertical surfaces,
     against the model's vertical surfaces) the scan is unregistered too: floors and
     ceilings match wherever two footprints overlap, walls only where the layouts agree.
-    Measured as above: correct 0.84–0.93, heavily furnished 0.64–0.83 (furniture fronts
-    stand before the walls); failures 0.05–0.13 (turned 90°), 0.05–0.42 (other presets,
-    those above 0.3 also failing ``min_fitness``). Not caught by either: buildings that
-    look alike (change_demo's scan on the office_mw model: fitness 0.64, walls 0.66) and
-    near-symmetric ones (change_demo turned 180°: 0.72, 0.56; ICP from a coarse start can
-    end in that pose for a scan turned 90°)."""
+    Lower than ``min_fitness`` because furniture fronts stand before the walls. Not caught
+    by either: buildings that look alike and near-symmetric ones (a scan turned by a half
+    turn; ICP from a coarse start can end in that pose)."""
     coarse_start: bool = True
     """When no initial transform is given and the check fails, retry ICP from a
     translation that aligns the scan's centroid / bounding-box centre with the model's."""

@@ -6,8 +6,8 @@ Files written by :func:`write_change_outputs` into ``out_dir`` (each atomically)
   ``type`` (uint8: 0 existing, 1 new, 2 unclassified: the registration failed),
   ``distance`` (float32 metres to the closest model surface, -1 when none within the
   search distance), ``cluster`` (int32 candidate element, -1 none), ``surface`` (int32
-  index into coverage/classification surfaces, -1 none) and colours (existing grey-blue, new red,
-  unclassified grey);
+  index into coverage/classification surfaces, -1 none) and colours (existing grey-blue,
+  new red, unclassified grey);
 * ``coverage.json`` — the registration status and one row per room face: key, shape,
   kind, area, coverage, redundant;
 * ``surfaces_coverage.ply`` — the room faces (model frame) coloured by coverage;

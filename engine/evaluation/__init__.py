@@ -1,4 +1,4 @@
-"""Quality evaluation of indoor models against a reference (SPEC.md §4).
+"""Quality evaluation of indoor models against a reference (docs/method.md §4).
 
 :func:`evaluate` gives completeness, correctness and accuracy curves over buffer sizes
 b = r (1–10 cm by default), per semantic group (wall / floor / ceiling) and overall, and

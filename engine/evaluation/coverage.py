@@ -1,7 +1,7 @@
 """Points on surfaces: which points lie on which planar patch, and how much of it they cover.
 
 Shared by the visibility annotation of references (point-on-face index) and by the change
-detection (point classification, surface coverage by 2D alpha shapes, SPEC.md §5).
+detection (point classification, surface coverage by 2D alpha shapes, docs/method.md §5).
 """
 from __future__ import annotations
 

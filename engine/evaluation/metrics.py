@@ -1,4 +1,4 @@
-"""Completeness, correctness and accuracy of a source model against a reference (SPEC.md §4).
+"""Completeness, correctness and accuracy of a source model against a reference (docs/method.md §4).
 
 For every visible reference surface ``R_j`` and buffer size ``b``::
 
@@ -42,7 +42,7 @@ __all__ = ["EvaluationParams", "EvaluationResult", "evaluate", "DEFAULT_BUFFERS"
 log = logging.getLogger(__name__)
 
 DEFAULT_BUFFERS = tuple(round(0.01 * k, 2) for k in range(1, 11))
-"""b = r from 1 cm to 10 cm (SPEC.md §4), metres."""
+"""b = r from 1 cm to 10 cm (docs/method.md §4), metres."""
 GROUPS = ("wall", "floor", "ceiling")
 """Semantic groups compared like with like."""
 
@@ -242,7 +242,7 @@ def _visible_mask(ref: list, visible) -> np.ndarray:
 
 def evaluate(source, reference, params: Optional[EvaluationParams] = None, *, visible=None,
              progress=None, should_stop=None) -> EvaluationResult:
-    """Compare a source model with a reference model (SPEC.md §4).
+    """Compare a source model with a reference model (docs/method.md §4).
 
     Parameters
     ----------

@@ -3,7 +3,7 @@
 A reference surface is *visible* when the scan covers enough of it: the point-on-face index
 of the surface — the area of the 2D alpha shape of the scan points lying on it divided by
 its area — reaches a threshold. Other surfaces are *interpreted* (inferred, e.g. the hidden
-side of an outer wall) and are left out of the comparison (SPEC.md §4).
+side of an outer wall) and are left out of the comparison (docs/method.md §4).
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Alpha-shape coverage of cells, computed once per cell complex (SPEC.md §3.3).
+"""Alpha-shape coverage of cells, computed once per cell complex (docs/method.md §3.2).
 
 The rjMCMC likelihood needs, for every candidate interior space (a union of cells), the
 area of its ceiling covered by points, the covered area of its side faces and the area of
@@ -63,6 +63,7 @@ class Face:
 
     @property
     def length(self) -> float:
+        """Total length of the face's footprint segments, metres."""
         return float(np.sum(np.linalg.norm(self.segments[:, 1] - self.segments[:, 0], axis=1)))
 
 
@@ -123,7 +124,7 @@ class CellSet:
     def thickness(self, c: int, fi: int) -> float:
         """How far cell ``c`` reaches from face ``fi``: the largest distance of its vertices
         to the line of the nearest of the face's segments, metres (the "vertex-to-surface
-        distance" of the wall rule, SPEC.md §3.4)."""
+        distance" of the wall rule, docs/method.md §3.4)."""
         v = np.asarray(self.polygons[c].exterior.coords)[:-1, :2]
         out = math.inf
         for p, q in self.faces[fi].segments:
@@ -137,7 +138,7 @@ class CellSet:
         return out
 
     def wall_thickness(self, c: int, faces, in_space) -> float:
-        """SPEC.md §3.4's wall rule for cell ``c``: the smallest :meth:`thickness` of ``c``
+        """The wall rule of docs/method.md §3.4 for cell ``c``: the smallest :meth:`thickness` of ``c``
         against those of its ``faces`` (face indices, e.g. from :meth:`cell_faces`) that it
         shares with a cell where ``in_space`` ((n,) bool) is True, metres; inf when there is
         none. ``c`` is a wall when this is at most the maximum wall thickness."""

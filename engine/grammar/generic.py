@@ -167,7 +167,7 @@ def _weighted_median(v: np.ndarray, w: np.ndarray) -> float:
 
 
 def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) -> list[Shape]:
-    """Shapes of one storey: spaces, walls (SPEC.md §3.4), exterior, and the cells.
+    """Shapes of one storey: spaces, walls (docs/method.md §3.4), exterior, and the cells.
 
     Parameters
     ----------
@@ -232,7 +232,7 @@ def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) 
             geometry=Polyhedron.prism(_polygon_coords(cells.polygons[c]), *cells.z_range[c]),
             storey=index, terminal=True, children=(f"s{index}_cell{c}",),
             attributes={"thickness": thick, "height": float(cells.z_range[c, 1] - cells.z_range[c, 0])},
-            log=(f"walls (SPEC 3.4): untyped cell next to a space, vertices within {thick:.3f} m "
+            log=(f"walls (docs/method.md §3.4): untyped cell next to a space, vertices within {thick:.3f} m "
                  f"<= {max_wall_thickness:g} m of the shared face -> wall",)))
         kind[c], owner[c] = "wall", wid
     # --- exterior: connected groups of the remaining cells (hole-free unions), else per cell
@@ -259,7 +259,7 @@ def build_storey_shapes(sc: StoreyCells, index: int, max_wall_thickness: float) 
                 id=eid, type=ShapeType.EXTERIOR,
                 geometry=Polyhedron.prism(_polygon_coords(poly), st.floor_z, st.ceiling_z),
                 storey=index, terminal=True, children=tuple(f"s{index}_cell{c}" for c in sorted(g)),
-                log=("walls/exterior (SPEC 3.4): cell neither interior nor wall -> exterior",)))
+                log=("walls/exterior (docs/method.md §3.4): cell neither interior nor wall -> exterior",)))
             for c in g:
                 kind[c], owner[c] = "exterior", eid
     # --- the cells themselves, inactive parts
@@ -427,7 +427,8 @@ def generic_model(prep: Prepared, params: GenericParams = GenericParams(), *, rn
                            prep_params=prep.params)
     timings["model"] = time.perf_counter() - t1
     timings["total"] = sum(v for k, v in timings.items() if k != "total")
-    model = model.with_(provenance=Provenance(**{**model.provenance.__dict__, "timings": timings}))
+    trace = {**model.provenance.trace, "cleaning": dict(prep.cleaning)}
+    model = model.with_(provenance=Provenance(**{**model.provenance.__dict__, "timings": timings, "trace": trace}))
     p(1.0, "generic reconstruction done")
     return model
 

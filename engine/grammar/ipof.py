@@ -1,4 +1,4 @@
-"""The point-on-face index (SPEC.md §2, rule 2): IPoF = n σ² / A_face.
+"""The point-on-face index (docs/method.md §2, thesis Eq. 3.1): IPoF = n σ² / A_face.
 
 n is the number of points within the shape buffer δ of a face and inside its extent, σ
 the point spacing and A_face the face area. Scans are much denser near the scanner than
@@ -6,8 +6,8 @@ far from it, so counting raw points would call a small patch near the scanner "c
 We therefore count points after thinning them to one per σ × σ cell of the face plane:
 n σ² is then the area the points cover and IPoF the covered share of the face (≈ 1 for a
 fully seen face, whatever the density). Only points whose normal is within θ of the
-face's normal count (SPEC.md §1 clustering), so that the edge of a ceiling does not make
-the side of a wall look seen.
+face's normal count (as in the point clustering, docs/method.md §1), so that the edge of a
+ceiling does not make the side of a wall look seen.
 
 Two entry points: :func:`grid_face_index` evaluates every face lying on one axis-aligned
 plane of a grid at once (the Manhattan grammar), :func:`face_index` evaluates one planar

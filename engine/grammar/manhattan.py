@@ -15,7 +15,7 @@ each stores the point-on-face index of its six faces (``ipof_f0`` … ``ipof_f5`
 the order bottom, top, −y, +x, +y, −x) and ``ipof_top`` / ``ipof_sides``, and a log of the
 rules that typed it.
 
-Departures from SPEC.md §2 (each needed by a test on synthetic or real scans):
+Departures from the thesis (docs/method.md §2):
 
 * Place: histogram peaks are measured in surface *area* (σ-cells), not raw counts, and
   only points whose normal is along the axis vote. A peak is a wall only if its surface
@@ -24,12 +24,12 @@ Departures from SPEC.md §2 (each needed by a test on synthetic or real scans):
   bounds the seen ceiling, the ceiling's seen extent bounds the grid.
 * The ceiling (seen extent, "under a ceiling", top-face index) is the horizontal points
   within δ of its level *or* topmost in their ``level_cell`` cell and at most
-  ``wall_top_band`` below it (:func:`_ceiling_mask`): on the real TLS scans the ceiling
-  reads up to 9 cm low 5–8 m from the scanner. Its seen extent is that of its largest
+  ``wall_top_band`` below it (:func:`_ceiling_mask`): a terrestrial scan's ceiling reads
+  lower far from the scanner. Its seen extent is that of its largest
   connected group of occupied cells (area, not a point percentile: the far end of a
   scan is sparse), and the grid ends there at the outermost weakly seen wall surface
   (≥ ``min_bound_wall_area``) reaching the ceiling height within ``max_wall_thickness``
-  of that edge (:func:`_closing_wall`; room_scan1's far end wall, seen only in patches).
+  of that edge (:func:`_closing_wall`: a far end wall seen only in patches).
 * Z cuts: the floor and every *ceiling level* of the storey (a level with nothing above
   it), so rooms get their own ceiling heights; desks and shelves (surfaces with something
   above and below) make no cut.
@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import asdict, replace
+from dataclasses import asdict
 from typing import Optional, Sequence
 
 import numpy as np
@@ -50,10 +50,9 @@ import numpy as np
 from ..errors import EmptyCloudError, ReconstructionError
 from ..geometry.normals import knn_normals
 from ..model import BuildingModel, Provenance, Shape, ShapeType, Storey
-from ..pipeline import Prepared, align, preprocess
+from ..pipeline import Prepared, align, full_cloud_normals, preprocess
 from ..pointcloud import PointCloud
 from ..progress import Progress
-from ..segmentation.cleaning import estimate_normals
 from ..segmentation.params import PreprocessParams
 from .geometry import box_of
 from .ipof import grid_face_index
@@ -73,12 +72,13 @@ def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyF
 
     ``pts`` : (n, 3) points of the storey except those facing the other horizontal axis
     (near a ceiling the PCA normals of a wall are spoiled by the ceiling's points, so
-    facing ``axis`` is not required; the walls the plane cuts through are left out). Walls run up to a ceiling; shelves, cabinets
-    and tables stop short of it. The surface must cover at least ``min_wall_top_length``
-    (metres, counted in σ-cells along the wall) within ``wall_top_band`` below one of the
-    storey's ceiling levels, under that ceiling (``ceiling_cells``: per ceiling level a
-    membership test of its occupied ``level_cell`` cells, or None). (Extension of SPEC.md rule 1, which takes every peak:
-    furniture faces would cut rooms into slices whose common faces look closed.)
+    facing ``axis`` is not required; the walls the plane cuts through are left out).
+    Walls run up to a ceiling; shelves, cabinets and tables stop short of it. The surface
+    must cover at least ``min_wall_top_length`` (metres, counted in σ-cells along the wall)
+    within ``wall_top_band`` below one of the storey's ceiling levels, under that ceiling
+    (``ceiling_cells``: per ceiling level a membership test of its occupied ``level_cell``
+    cells, or None). Departure from rule 1 (docs/method.md §2), which takes every peak:
+    furniture faces would cut rooms into slices whose common faces look closed.
     """
     w = max(1.5 * params.bin_size, params.shape_buffer / 2)
     if sorted_t is not None:  # pts sorted along axis: take the slab by bisection
@@ -117,7 +117,7 @@ def _seen_extent(xy: np.ndarray, axis: int, cell: float) -> tuple[float, float]:
     windows are not, so no percentile is needed), and the outer edges of its outermost
     cells along ``axis`` give the extent. Cells, not points: a terrestrial scan
     is far denser near the scanner, so a point percentile would cut off the sparsely seen
-    far end of a ceiling (room_scan1: 6.6 m instead of 7.75 m).
+    far end of a ceiling.
     """
     from scipy import ndimage
 
@@ -154,10 +154,9 @@ def _ceiling_mask(p: np.ndarray, hor: np.ndarray, level: float, frame: StoreyFra
     A horizontal point is on it when it lies within the shape buffer δ of the level, or
     when it is the top surface of its ``level_cell`` cell in the storey (nothing above
     it within δ) and at most ``wall_top_band`` below the level. The second part follows
-    a ceiling that reads lower far from a terrestrial scanner (room_scan1/2: the ceiling
-    at +1.65 m reads 1.56–1.59 m 5–8 m away, the floor 3–5 cm low: a range-dependent
-    error of the scans, not a step), and stops at a real step (a soffit or a lower
-    ceiling more than the band down). Extension of SPEC.md rule 1.
+    a ceiling that reads lower far from a terrestrial scanner (a range-dependent error of
+    the scans, not a step), and stops at a real step (a soffit or a lower ceiling more
+    than the band down). Departure from rule 1 (docs/method.md §2).
     """
     d = params.shape_buffer
     m = hor & (np.abs(p[:, 2] - level) <= d)
@@ -329,8 +328,8 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                          f"x[{X[i]:.3f},{X[i + 1]:.3f}] y[{Y[j]:.3f},{Y[j + 1]:.3f}] z[{Z[k]:.3f},{Z[k + 1]:.3f}]",
                          line))
     # wall junctions: a cuboid thin in both directions between walls (its faces are hidden
-    # inside the walls, so its own index cannot be seen) continues them. Extension of
-    # SPEC.md rule 2 (see the module docstring).
+    # inside the walls, so its own index cannot be seen) continues them. Departure
+    # from rule 2 of docs/method.md §2 (see the module docstring).
     for (i, j, k), s in list(shapes.items()):
         if s.type == ShapeType.WALL or s.attributes["thin_axis"] != 2:
             continue
@@ -455,13 +454,7 @@ def manhattan_model(prep: Prepared, params: Optional[ManhattanParams] = None, *,
     t0 = time.perf_counter()
     seed = int(rng.integers(2**31))
     p(0.0, "Manhattan alignment")
-    full = prep.cloud
-    if full.normals is None:
-        # the grammar reads every point's normal: PCA on the full cloud, over at least
-        # ``radius_spacings`` point spacings (far walls of a terrestrial scan are sparse)
-        npar = prep.params.normals
-        full = estimate_normals(full, replace(npar, radius=max(npar.radius, npar.radius_spacings * prep.spacing)))
-    prep = align(prep, rng=seed, cloud=full)
+    prep = align(prep, rng=seed, cloud=full_cloud_normals(prep.cloud, prep.params, prep.spacing))
     aligned = prep.cloud.transformed(np.linalg.inv(prep.transform))  # with normals (align)
     storeys = prep.storeys if prep.storeys_found else None
     base = params or ManhattanParams()
@@ -474,7 +467,8 @@ def manhattan_model(prep: Prepared, params: Optional[ManhattanParams] = None, *,
     timings = {**prep.timings, "align_and_normals": t_pre, **model.provenance.timings}
     return model.with_(provenance=Provenance(
         method="manhattan", parameters={**params.to_dict(), "preprocess": asdict(prep.params)}, seed=seed,
-        timings=timings, trace=model.provenance.trace, source=prep.cloud.source, software="indoor engine"))
+        timings=timings, trace={**model.provenance.trace, "cleaning": dict(prep.cleaning)},
+        source=prep.cloud.source, software="indoor engine"))
 
 
 def reconstruct_manhattan(cloud: PointCloud, params: Optional[ManhattanParams] = None, *, rng=None,
@@ -486,5 +480,5 @@ def reconstruct_manhattan(cloud: PointCloud, params: Optional[ManhattanParams] =
         raise EmptyCloudError("too few points for a reconstruction", cloud.source or None)
     p = Progress.wrap(progress, should_stop)
     gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
-    prep = preprocess(cloud, preprocess_params, rng=gen, planes=False, progress=p.sub(0.0, 0.2))
+    prep = preprocess(cloud, preprocess_params, rng=gen, planes=False, full_normals=True, progress=p.sub(0.0, 0.2))
     return manhattan_model(prep, params, rng=gen, progress=p.sub(0.2, 1.0))

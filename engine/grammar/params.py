@@ -1,9 +1,11 @@
-"""Parameters of the Manhattan shape grammar (SPEC.md §2 and §6).
+"""Parameters of the two reconstruction methods (docs/method.md §2, §3 and §6).
 
-The defaults are the thesis's values for real TLS data (Table 6.2: histogram bin 3–5 cm,
-maximum wall thickness 0.125–0.5 m, shape buffer 0.05–0.2 m). :func:`params_from_data`
-chooses the data-dependent ones from the point spacing and the noise of a cloud; the
-rules for that choice are written next to each field.
+:class:`ManhattanParams` (the shape grammar, §2): the default maximum wall thickness is the
+thesis's synthetic row of Table 6.2 (its real TLS rows are in :meth:`ManhattanParams.spec_table`);
+the histogram bin, the shape buffer δ, the spacing σ and the noise σ_noise default to None and
+:func:`params_from_data` chooses them from the cloud by the rules written in its docstring.
+:class:`GenericParams` (cells, coverage and rjMCMC search, §3) take the thesis's Table 6.5
+values where it gives them.
 """
 from __future__ import annotations
 
@@ -16,7 +18,8 @@ import numpy as np
 from ..geometry.spacing import estimate_spacing
 from ..quantities import Count, Factor, Flag, Metres, OptionalMetres, Percent, Radians, Ratio, SquareMetres
 
-__all__ = ["ManhattanParams", "GenericParams", "CellParams", "CoverageParams", "RjmcmcParams", "params_from_data", "estimate_noise", "estimate_spacing"]
+__all__ = ["ManhattanParams", "GenericParams", "CellParams", "CoverageParams", "RjmcmcParams",
+           "params_from_data", "estimate_noise", "estimate_spacing"]
 
 
 @dataclass(frozen=True)
@@ -26,16 +29,18 @@ class CellParams:
     min_wall_area: SquareMetres = 0.5
     """Wall planes with a smaller covered area do not cut the floor, m²."""
     line_merge_angle: Radians = math.radians(2.0)
-    """Two wall lines closer than this in angle ..."""
+    """Two wall lines closer than this in angle (and ``line_merge_distance`` in offset) are one
+    line, radians."""
     line_merge_distance: Metres = 0.015
-    """... and this in offset are one line (duplicates would only make slivers), metres."""
+    """Two wall lines closer than this in offset (and ``line_merge_angle`` in angle) are one
+    line, metres: duplicates would only make slivers."""
     extent_margin: Metres = 0.3
     """The storey's extent (box around its points) is grown by this, metres."""
     min_cell_area: SquareMetres = 0.01
     """Cells smaller than this join their neighbour with the longest shared edge, m²."""
     min_cell_width: Metres = 0.03
-    """... and so do cells narrower than this (``2 × area / perimeter``), metres: wedges and
-    strips between lines crossing at a few degrees are no room and no wall."""
+    """Cells narrower than this (``2 × area / perimeter``) join their neighbour too, metres:
+    wedges and strips between lines crossing at a few degrees are no room and no wall."""
     min_face_length: Metres = 0.02
     """Shared edges shorter than this do not make cells adjacent, metres."""
 
@@ -58,11 +63,13 @@ class CoverageParams:
     """Horizontal planes at least this large in a storey's upper half are its ceiling levels,
     m²; ceiling points must lie near one (a door head is not a ceiling)."""
     ceiling_band: Metres = 0.1
-    """... within this distance, metres."""
+    """Ceiling points must lie within this distance of a ceiling level (``min_ceiling_area``),
+    metres."""
     alpha_spacing_factor: Factor = 5.0
-    """r_α follows the local spacing of the thinned ceiling points: this many spacings ..."""
+    """r_α of the ceiling follows the local spacing of the thinned ceiling points: this many
+    spacings, at least ``r_alpha`` and at most ``r_alpha_max``."""
     r_alpha_max: Metres = 0.6
-    """... up to this circumradius, metres (<= r_α: one r_α everywhere)."""
+    """Upper bound of the ceiling's spacing-following r_α, metres (<= r_α: one r_α everywhere)."""
     wall_band: Metres = 0.6
     """Wall coverage is measured in this band under the ceiling, metres; 0: the whole face."""
     coverage_grid: Metres = 0.04
@@ -76,10 +83,10 @@ class RjmcmcParams:
     max_wall_thickness: Metres = 0.3
     """Prior: a space must be wider than this (smaller side of its scope), metres."""
     min_space_area: SquareMetres = 1.0
-    """Prior: ... and have at least this floor area, m² (a WC is about 1.2 m²). Departure
-    from SPEC.md, whose prior has the width alone: a sliver between a slanted wall and the
-    line of another wall, 0.3 m wide and 0.4 m² (syn_house seed 3), scored as a sixth room
-    by a margin of 1e-3 in log P. 0: width alone."""
+    """Prior: a space must also have at least this floor area, m² (a WC is about 1.2 m²). Departure
+    from the thesis, whose prior has the width alone: a sliver between a slanted wall and
+    the line of another wall can be wider than a wall and still score as a room. 0: width
+    alone."""
     k1: Factor = 1.0 / 3.0
     """Weight of the horizontal coverage P_hor in the global likelihood."""
     k2: Factor = 1.0 / 3.0
@@ -119,7 +126,7 @@ class RjmcmcParams:
     """Greedy best-improvement moves after the chain (see the module doc)."""
     area_weighted_local: Flag = True
     """``log P_L = Σ_i (|M_i.top| / Cov(hpoints)) · log(Cov(M_i.top)/|M_i.top|)`` instead of
-    the plain product of ratios (see the module doc); False: SPEC.md's product."""
+    the plain product of ratios (see the module doc); False: the thesis's product."""
     absorb_covered: Flag = True
     """After the search, an untyped *covered* cell adjacent to exactly one space joins it
     (repeated until nothing changes): it lies under that room's ceiling. So does a
@@ -157,16 +164,18 @@ class ManhattanParams:
 
     Choosing them from the data (what :func:`params_from_data` does):
 
-    * ``spacing`` σ — the mean distance between neighbouring points on a surface; from
-      the local density of the cloud, σ = 1/sqrt(points per m²).
-    * ``shape_buffer`` δ — larger than the noise, smaller than a wall thickness:
-      ``max(3 σ_noise, σ, 0.03)`` capped at half the minimum wall thickness.
-    * ``bin_size`` — at most half the maximum wall thickness (SPEC.md §2); a few times
-      the noise so that one surface falls into one or two bins.
+    * ``spacing`` σ — the distance between neighbouring points on a surface; from the
+      local density ρ of the cloud (a low percentile, the sparse far walls), σ = 1/sqrt(ρ).
+    * ``noise`` σ_noise — the scatter of the points across a surface (:func:`estimate_noise`).
+    * ``shape_buffer`` δ — larger than the noise, smaller than a wall:
+      ``clip(max(3 σ_noise, σ), 0.03, max_wall_thickness / 4)``.
+    * ``bin_size`` — a few times the noise so that one surface falls into one or two bins,
+      at most half the maximum wall thickness (docs/method.md §2):
+      ``min(clip(2 σ_noise, 0.02, 0.05), max_wall_thickness / 2)``.
     * ``tau`` τ — empirical; faces need not be fully covered (doors, clutter, occlusion).
 
-    The thesis's own values (SPEC.md §6) are :meth:`spec_table`; :meth:`real_tls` loosens
-    the wall tests for real furnished rooms.
+    The thesis's own values (docs/method.md §6) are :meth:`spec_table`; :meth:`real_tls`
+    loosens the wall tests for real furnished rooms.
     """
 
     tau: Ratio = 0.3
@@ -178,7 +187,8 @@ class ManhattanParams:
     """δ: points within this distance of a face count for its point-on-face index, metres;
     None = choose from the data."""
     max_wall_thickness: Metres = 0.5
-    """A cuboid whose smaller horizontal size is at most this may be a wall, metres."""
+    """A cuboid whose smaller horizontal size is at most this may be a wall, metres (the
+    thesis's synthetic value; it also bounds δ and the bin)."""
     min_interval: Metres = 0.05
     """Two histogram peaks closer than this are one surface (no cuboid thinner), metres."""
     spacing: OptionalMetres = None
@@ -192,7 +202,8 @@ class ManhattanParams:
     """A wall surface reaches a ceiling: it must have points within this band below a
     ceiling level (furniture stops short of it), metres."""
     min_wall_top_length: Metres = 0.5
-    """...over at least this length along the wall, metres."""
+    """The points within ``wall_top_band`` below the ceiling must cover at least this length
+    along the wall, metres."""
     extent_percentile: Percent = 0.5
     """Where no wall bounds the seen ceiling, the grid ends at this percentile (and 100 −
     it) of the ceiling points' coordinates (robust to a few stray points), percent."""
@@ -212,11 +223,12 @@ class ManhattanParams:
     min_slab_thickness: Metres = 0.1
     """A z range at least this long with (almost) no points is a slab between storeys, m."""
     slab_gap_share: Ratio = 0.05
-    """...where "almost no points" is less than this share of the median z-bin area."""
+    """A slab's z bins hold less than this share of the median z-bin area ("almost no
+    points")."""
     corridor_aspect: Factor = 3.0
     """A space whose footprint is this many times longer than wide is named a corridor."""
     corridor_max_width: Metres = 2.5
-    """...and is at most this wide, metres."""
+    """A corridor (see ``corridor_aspect``) is at most this wide, metres."""
     level_cell: Metres = 0.25
     """Cell of the 2D occupancy grid that tells ceilings (nothing above) from desks, metres."""
     level_exposed: Ratio = 0.5
@@ -228,7 +240,7 @@ class ManhattanParams:
 
     @classmethod
     def spec_table(cls, dataset: str = "synthetic", **changes) -> "ManhattanParams":
-        """The thesis's values (SPEC.md §6, Table 6.2) instead of data-chosen ones.
+        """The thesis's values (docs/method.md §6, thesis Table 6.2) instead of data-chosen ones.
 
         ``dataset``: "synthetic" (bin 0.05, max wall 0.5, buffer 0.05), "real_tls" (bin
         0.03, max wall 0.25, buffer 0.1) or "isprs" (bin 0.03, max wall 0.35, buffer 0.1).

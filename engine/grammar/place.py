@@ -52,6 +52,7 @@ class StoreyFrame:
 
     @property
     def ceiling(self) -> float:
+        """The highest ceiling level, z metres."""
         return float(self.ceilings[-1])
 
     @property

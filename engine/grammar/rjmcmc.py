@@ -1,4 +1,4 @@
-"""Reversible-jump MCMC search for the interior spaces (SPEC.md §3.3, thesis Ch. 4.4).
+"""Reversible-jump MCMC search for the interior spaces (docs/method.md §3.3, thesis Ch. 4.4).
 
 The model M is a set of interior spaces, each a union of cells of a :class:`~.coverage.CellSet`.
 The search maximises ``P(M | D) ∝ P(M) · P_L · P_G`` by Metropolis–Hastings with the four
@@ -12,7 +12,7 @@ reversible jumps of the thesis:
 
 Since add–merge joins every adjacent space, two spaces never share a face: the adjacency and
 merge rules are applied as part of each move (that is the "topology rules fire after every
-accepted move" of SPEC.md; the wall/door relations are derived once after the search).
+accepted move" of docs/method.md §3.3; the wall/door relations are derived once after the search).
 
 Score (log domain)::
 
@@ -30,7 +30,7 @@ Kernel (MDL): ``C(M) = log2 n`` (1 for n ≤ 1), ``J(M'|M) = μ·C(M)/C(M')``; a
 ``α = min(1, P(M')J(M'|M) / (P(M)J(M|M')))``, accepted when ``α > U``, ``U ~ U[β, 1]``.
 The best model seen is kept.
 
-Departures from SPEC.md (recorded here as asked):
+Departures from the thesis (docs/method.md §3.3):
 
 * The prior has a second condition (``RjmcmcParams.connected_cover``): the cells of a
   space that lie under the ceiling (coverage ratio ≥ ``cover_ratio``) must be connected
@@ -45,25 +45,25 @@ Departures from SPEC.md (recorded here as asked):
   cell between two rooms lets one room claim the other room's wall surface.
 * ``P_L`` weights each space's log coverage ratio by its share of the covered ceiling
   area (``RjmcmcParams.area_weighted_local``). The plain product charges every room the
-  same factor (its ratio, about 0.95–0.98 on real scans) while the global gain of a room
-  shrinks with the building's size: in a 40-room grid the product leaves a third of the
-  rooms out (bench_rjmcmc). Weighted, a badly covered space still costs a lot, a good room
-  costs little. The weight's denominator is a constant of the data, so the score stays
-  a sum of per-space terms (incremental).
+  same factor (its ratio, a little below 1 on real scans) while the global gain of a room
+  shrinks with the building's size, so in a large building the product leaves rooms out.
+  Weighted, a badly covered space still costs a lot, a good room costs little. The
+  weight's denominator is a constant of the data, so the score stays a sum of per-space
+  terms (incremental).
 * After the search, untyped covered cells next to exactly one space join it
   (``RjmcmcParams.absorb_covered``): ``P_L`` multiplies coverage *ratios*, so a partly
-  occluded cell at a room's edge (ceiling coverage 0.5–0.9) lowers the score although it
-  lies under the room's ceiling; the returned ``log_posterior`` is that of the final model.
-  A cell walled in by seen walls except towards one space joins it with less ceiling
-  coverage (``walled_in_ratio``): at the far end of a corridor the ceiling is sampled a
-  few points per m² and its alpha shape covers half a corner cell, yet the cell cannot be
-  exterior — nothing but the room reaches it (office_mw: the corridor's end wall).
+  occluded cell at a room's edge lowers the score although it lies under the room's
+  ceiling; the returned ``log_posterior`` is that of the final model. A cell walled in by
+  seen walls except towards one space joins it with less ceiling coverage
+  (``walled_in_ratio``): at the far end of a corridor the ceiling is sampled sparsely and
+  its alpha shape covers only part of a corner cell, yet the cell cannot be exterior —
+  nothing but the room reaches it.
 * The chain starts from a greedy best-improvement ascent from the empty model
-  (``RjmcmcParams.greedy_start``), and after the chain, a greedy *polish* applies
-the best strictly improving move until none improves (``RjmcmcParams.polish``). The
-posterior is flat enough (a missing room costs a factor of about 0.8) that the plain chain
-often ends one cell or one small room short of its optimum; the polish makes the result
-independent of the seed. Set ``polish=False`` for the thesis's procedure.
+  (``RjmcmcParams.greedy_start``), and after the chain, a greedy *polish* applies the best
+  strictly improving move until none improves (``RjmcmcParams.polish``). The posterior is
+  flat enough (a missing room costs little) that the plain chain often ends one cell or
+  one small room short of its optimum; the polish makes the result independent of the
+  seed. Set ``polish=False`` for the thesis's procedure.
 """
 from __future__ import annotations
 
@@ -79,7 +79,8 @@ from ..errors import InputError
 from ..model import Scope
 from ..progress import Progress
 from .params import CoverageParams, RjmcmcParams
-from .coverage import CellCoverage, CellSet, _face_band, adaptive_alpha, alpha_area, alpha_geometry, cell_heights, thin_points
+from .coverage import (CellCoverage, CellSet, _face_band, adaptive_alpha, alpha_area, alpha_geometry,
+                       cell_heights, thin_points)
 
 __all__ = ["RjmcmcParams", "SearchResult", "SpaceSearch", "search_spaces", "naive_log_posterior",
            "MOVES", "mdl_cost"]
@@ -155,7 +156,7 @@ class SpaceSearch:
         # not join two rooms
         # nor link through a face seen as a wall: where two walls cross, the cell of their
         # crossing is as long as the wall is thick and half under the ceiling of the room
-        # whose wall face there is too short to be seen (office_mw mobile, seed 3)
+        # whose wall face there is too short to be seen
         seen = coverage.seen if coverage.seen is not None else np.zeros(len(cells.faces), bool)
         self.long_nbrs = [[o for o, fi in lst if cells.faces[fi].length >= params.link_length
                            and not seen[fi]] for lst in cells.neighbours()]
@@ -238,6 +239,7 @@ class SpaceSearch:
 
     @property
     def score(self) -> float:
+        """log P(M | D) of the current model (up to the constant; −inf when the prior is 0)."""
         return self.score_of(self.sum_top, self.sum_vert, self.sum_in, self.sum_log, self.n_bad)
 
     # ------------------------------------------------------------------ moves
@@ -285,6 +287,7 @@ class SpaceSearch:
         # floating-point drift of the running sums is negligible (sums of tens of terms)
 
     def adjacent_spaces(self, c: int) -> set:
+        """Ids of the spaces holding a cell that shares a face with cell ``c``."""
         return {int(self.space_of[o]) for o in self.nbrs[c] if self.space_of[o] >= 0}
 
     def components(self, S: set) -> list[frozenset]:
@@ -304,11 +307,13 @@ class SpaceSearch:
         return out
 
     def move_add(self, c: int):
+        """*add* untyped cell ``c`` adjacent to no space: ``(remove, add)`` for :meth:`evaluate`, or None."""
         if self.space_of[c] >= 0 or self.adjacent_spaces(c):
             return None
         return [], [frozenset((c,))]
 
     def move_add_merge(self, c: int):
+        """*add–merge*: untyped cell ``c`` and all its adjacent spaces become one space, or None."""
         if self.space_of[c] >= 0:
             return None
         adj = self.adjacent_spaces(c)
@@ -320,6 +325,7 @@ class SpaceSearch:
         return sorted(adj), [frozenset(S)]
 
     def move_remove(self, sid: int):
+        """*remove* space ``sid`` when no other space is adjacent to it, or None."""
         # spaces are never adjacent to one another (add-merge joins them), so every space
         # qualifies; checked anyway for models set from outside
         S = self.spaces[sid]
@@ -330,6 +336,8 @@ class SpaceSearch:
         return [sid], []
 
     def move_split_remove(self, sid: int, c: int):
+        """*split–remove*: cell ``c`` leaves space ``sid``, the rest splits into its connected
+        parts; None for a one-cell space or a cell outside it."""
         S = self.spaces[sid]
         if len(S) < 2 or c not in S:
             return None
@@ -374,7 +382,7 @@ class SpaceSearch:
     def walled_in(self, c: int, sid: int) -> bool:
         """Whether cell ``c`` is walled in except towards space ``sid`` — each of its other
         faces a seen wall or shared with a wall cell (untyped, within the maximum wall
-        thickness of a face it shares with a space — the wall rule of SPEC.md §3.4: a wall
+        thickness of a face it shares with a space — the wall rule of docs/method.md §3.4: a wall
         seen at a grazing angle leaves too few points on a short face) — and enough of it
         lies under the ceiling (``RjmcmcParams.walled_in_ratio``). No covered cell may lie
         beyond it: a wall cell between the space and a room the search left out (a shelf
@@ -538,8 +546,8 @@ def search_spaces(cells: CellSet, coverage: CellCoverage, params: RjmcmcParams =
     rate = n_acc / n_prop if n_prop else 0.0
     seconds = time.perf_counter() - t0
     trace = {"iteration": tr_it, "score": tr_score, "spaces": tr_n, "proposed": proposed,
-             "accepted": accepted, "best_iteration": best_it, "polish_moves": polish_moves, "greedy_moves": greedy_moves,
-             "absorbed_cells": absorbed,
+             "accepted": accepted, "best_iteration": best_it, "polish_moves": polish_moves,
+             "greedy_moves": greedy_moves, "absorbed_cells": absorbed,
              "seconds": seconds, "cells": n, "parameters": asdict(params)}
     log.info("rjMCMC: %d cells, %d iterations, acceptance %.2f, %d spaces, log P = %.4f (%.2f s)",
              n, n_iter, rate, len(best), best_score, seconds)

@@ -1,4 +1,4 @@
-"""The rules of the shape grammar (SPEC.md §2), written so that they read like it.
+"""The rules of the shape grammar (docs/method.md §2), written so that they read like it.
 
 A rule is ``antecedent → subsequent : condition``. Here:
 
@@ -62,7 +62,7 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float) -> tup
     The conditions, in order:
 
     * thin, IPoF(sides) ≥ τ, IPoF(top) < τ and the top touches no interior shape →
-      wall. (SPEC.md: thin and IPoF(sides) ≥ τ. The extra "top not seen" conditions keep
+      wall. (docs/method.md §2: thin and IPoF(sides) ≥ τ. The extra "top not seen" conditions keep
       a thin slice of a room between a wall and a cupboard, whose top is ceiling or the
       room above, from becoming a wall.)
     * IPoF(top) ≥ τ, or the top touches an interior shape → interior space;
@@ -70,11 +70,13 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float) -> tup
     """
     sides, top = support.get("ipof_sides", 0.0), support.get("ipof_top", 0.0)
     if thin and sides >= tau and top < tau and not above_interior:
-        return ShapeType.WALL, f"classify: thin, IPoF(sides)={sides:.2f} >= tau={tau:g}, IPoF(top)={top:.2f} < tau -> wall"
+        return ShapeType.WALL, (f"classify: thin, IPoF(sides)={sides:.2f} >= tau={tau:g}, "
+                                f"IPoF(top)={top:.2f} < tau -> wall")
     if top >= tau:
         return ShapeType.INTERIOR, f"classify: IPoF(top)={top:.2f} >= tau={tau:g} -> interior"
     if above_interior:
-        return ShapeType.INTERIOR, f"classify: IPoF(top)={top:.2f} < tau={tau:g} but top touches an interior shape -> interior"
+        return ShapeType.INTERIOR, (f"classify: IPoF(top)={top:.2f} < tau={tau:g} "
+                                    "but top touches an interior shape -> interior")
     return ShapeType.EXTERIOR, f"classify: IPoF(top)={top:.2f} < tau={tau:g}" + (
         f", IPoF(sides)={sides:.2f}" if thin else "") + " -> exterior"
 
@@ -288,9 +290,10 @@ def space_relations(parts: list[Shape], top: dict, doors: list[Shape],
     """Rules 3 and 4 after merging.
 
     Adjacency: an interior space and another space (interior or exterior) with a wall
-    between them (``via`` = the wall), or sharing a face directly. Connectivity: spaces whose common wall holds a door
-    (``via`` = the door), recorded between the spaces and between the parts on either
-    side of the door (so the sub-space graph passes through the door too).
+    between them (``via`` = the wall), or sharing a face directly. Connectivity: spaces
+    whose common wall holds a door (``via`` = the door), recorded between the spaces and
+    between the parts on either side of the door (so the sub-space graph passes through
+    the door too).
     ``top`` maps a part id to its merged shape id.
     """
     touching = shared_faces(parts) if touching is None else touching

@@ -21,13 +21,13 @@ The one preprocessing stage that runs these in order, for both methods, is
 :func:`engine.pipeline.preprocess`; the cells of the generic method are
 :func:`engine.grammar.generic.storey_cells`.
 
-Departures from SPEC.md (details in each module's docstring): alignment refines the
-k-means directions (vertical from floors *and* walls; yaw from the 4φ circular mean);
-storeys use layer area and wall contrast, not the raw histogram peaks; planes are exactly
-vertical/horizontal in the aligned frame, merge below 4° (not θ = 10°: walls meeting at
-6–7° exist), use the median support distance and reject merges that do not fit; the
-inlier band follows the floor's measured noise; coverage uses 10 cm grids instead of alpha
-shapes.
+Departures from the thesis (docs/method.md §1, §3.1; details in each module's docstring):
+alignment refines the k-means directions (vertical from floors *and* walls; yaw from the 4φ
+circular mean); storeys use layer area and wall contrast, not the raw histogram peaks;
+planes are exactly vertical/horizontal in the aligned frame, merge below 4° (not θ = 10°:
+walls meeting at a few degrees exist), use the median support distance and reject merges
+that do not fit; the inlier band follows the floor's measured noise; a plane's area is
+counted on a 10 cm grid instead of an alpha shape.
 """
 from .alignment import AlignmentResult, align_manhattan, axial_kmeans, manhattan_residual
 from .classify import CLASS_HORIZONTAL, CLASS_OTHER, CLASS_WALL, classify_points

@@ -1,4 +1,4 @@
-"""Manhattan alignment from the normals (SPEC.md §1).
+"""Manhattan alignment from the normals (docs/method.md §1 "Manhattan alignment").
 
 Method
 ------
@@ -15,9 +15,8 @@ Method
    re-estimated on the normals within ``refine_tolerance`` of the current axes. Of the two
    horizontal axes the one closest to the input x becomes x (rotation ≤ 45° about z).
 
-Departure from SPEC.md: the spec names only the k-means; steps 2–3 refine its result
-because k-means centres are pulled by clutter normals by a degree or more, and the tests
-ask for 0.5°.
+Departure from the thesis: it names only the k-means; steps 2–3 refine its result
+because clutter normals pull the k-means centres off the true directions.
 """
 from __future__ import annotations
 

@@ -11,7 +11,8 @@ Too few distinct points, all points identical, collinear or coplanar (robust PCA
 of the sample against the largest extent, the local noise and, once the units are known,
 ``min_thickness``), and no structure (fewer than ``min_planar_share`` of the sample's
 neighbourhoods are planar: uniform noise). Each raises
-:class:`~engine.errors.ReconstructionError` naming the file, within a second at 1M points.
+:class:`~engine.errors.ReconstructionError` naming the file; the checks read only the sample,
+so their cost does not grow with the cloud.
 """
 from __future__ import annotations
 
@@ -61,20 +62,19 @@ class FrameParams:
     """... while every other axis stays below this."""
     rotate_margin: float = 1.0
     """Another axis replaces z only when its geometric score beats z's by this (natural
-    log of area share / extent; rotated presets lead by 1.3–3.2, a z-up 2 m × 3 m corridor
-    would trail by 0.8)."""
+    log of area share / extent): a clear lead, so that a z-up scan of a lone corridor, taller
+    than it is wide, keeps z."""
     min_patch: int = 4
     """A furniture top is a patch: at least this many such sample points within its cell
     and the 8 around, at one height (isolated points are sampling artefacts)."""
     min_clutter_share: float = 0.002
     """The furniture-top cue counts when such surfaces hold this share of the horizontal
-    area (lever-weighted; furnished presets 0.003–0.03, empty ones below 0.001) ..."""
+    area (lever-weighted; an empty room has almost none) ..."""
     min_clutter_points: int = 20
-    """... and holds this many sample points (furnished presets: 38–860; a stray patch
-    under a real ceiling: 3) ..."""
+    """... and holds this many sample points (a stray patch under a ceiling holds a few) ..."""
     clutter_clear: float = 0.5
-    """... and (lower − upper)/(lower + upper) reaches this in magnitude (furnished presets:
-    0.95–1)."""
+    """... and (lower − upper)/(lower + upper) reaches this in magnitude (furniture tops lie
+    almost all in the lower half of a storey)."""
     min_layer_coverage: float = 0.15
     """A horizontal layer covering this share of the footprint is dominant (a floor or a
     ceiling; desks and shelves cover less)."""
@@ -99,8 +99,8 @@ class FrameParams:
     """In metres (units known): a cloud thinner than this along its thinnest PCA axis is
     flat, narrower than this along the second is a line."""
     min_planar_share: float = 0.25
-    """Fewer planar neighbourhoods than this share means no structure (scans: 0.6–0.95,
-    uniform noise in a box: about 0.02)."""
+    """Fewer planar neighbourhoods than this share means no structure (a scan is mostly
+    planar, uniform noise in a box almost nowhere)."""
     min_up_confidence: float = 0.5
     """:func:`normalize_frame` refuses an automatic up axis below this confidence."""
     min_units_confidence: float = 0.5
@@ -135,6 +135,7 @@ class FrameSample:
 
 
 def source_name(cloud_or_sample) -> str:
+    """The cloud's (or sample's) source file for messages; "point cloud" when unknown."""
     return cloud_or_sample.source or "point cloud"
 
 
@@ -237,6 +238,7 @@ def area_weights(s: FrameSample) -> np.ndarray:
 
 
 def robust_extent(xyz: np.ndarray, lo=1.0, hi=99.0) -> np.ndarray:
+    """(3,) extent of (n, 3) points per axis between the ``lo`` and ``hi`` percentiles (units of ``xyz``)."""
     a, b = np.percentile(xyz, [lo, hi], axis=0)
     return b - a
 
@@ -338,6 +340,6 @@ def check_degenerate(cloud: PointCloud, params: FrameParams = FrameParams(), *, 
     ------
     ReconstructionError
         Naming ``cloud.source``: too few distinct points, identical, collinear, coplanar,
-        or no structure. Costs well under a second for 1M points (a sample).
+        or no structure. Reads only a sample, so the cost does not grow with the cloud.
     """
     checked_sample(cloud, params, scale, rng)

@@ -1,4 +1,4 @@
-"""Point clusters by normal direction (SPEC.md §1 "Point clustering")."""
+"""Point clusters by normal direction (docs/method.md §1 "Point clustering")."""
 from __future__ import annotations
 
 import numpy as np

@@ -4,9 +4,9 @@ no building at all.
 Everything runs on a sample of about ``FrameParams.sample_points`` points — a random
 pre-sample thinned on a voxel grid, so it is spatially even (a mobile scanner's dense
 horizon band on the walls would otherwise fill whole neighbourhoods with one thin slab) —
-with PCA normals over its ``neighbours`` nearest neighbours. It costs the same for 100k
-and 100M points (about 0.7 s), and every threshold is relative (to the extent, to the
-sample's own spacing and noise) until the units are known.
+with PCA normals over its ``neighbours`` nearest neighbours. Its cost does not grow with
+the cloud, and every threshold is relative (to the extent, to the sample's own spacing and
+noise) until the units are known.
 
 Up axis (:func:`detect_up`)
 ---------------------------
@@ -29,18 +29,17 @@ the cloud says where its scanners stood, from the scanners' blind cone:
   clearly disagrees.
 
 The geometric score of an axis is ``ln(area share) − ln(extent)``. The file's z is kept
-unless another axis beats it by ``rotate_margin`` (rotated presets: 1.3–3.2; a z-up scan
-of a lone 2 m wide corridor would lose by 0.8 and keep z). Without a blind cone the *sign*
+unless another axis beats it by ``rotate_margin`` (a clear lead, so that a z-up scan of a
+lone narrow corridor keeps z). Without a blind cone the *sign*
 comes from **gravity**: furniture stands on the floor, so free-standing horizontal surfaces
 inside a storey (tables, desks, cabinets: open air above them, off the floor and ceiling
 layers, in patches) lie in its lower half, weighted by their lever from mid-height;
 lintels, soffits and lamps are rarer and smaller. Without either cue the sign of a z-up
 file is kept (the convention of scanner formats; confidence 0.6) and the sign of another
-axis cannot be told (the scan cannot be oriented: pass it). The brief's other ideas were
-measured and not used: the scanner stands 1.5 m above a floor but also only 1.2 m below a
-2.7 m ceiling; the floor is less complete than the ceiling (furniture shadows, the
-tripod's blind disk) but only by 2–15 % of the footprint in the synthetic scans, with the
-wrong sign on some mobile ones.
+axis cannot be told (the scan cannot be oriented: pass it). Two other cues are not used,
+because neither tells floor from ceiling reliably: the scanner's height (it stands about as
+far below the ceiling as above the floor) and the floor's lower completeness (furniture
+shadows, the tripod's blind disk: a small difference, of either sign on mobile scans).
 
 Units (:func:`detect_units`, cloud z up)
 ----------------------------------------
@@ -352,10 +351,9 @@ class _Layers:
     def clutter(self):
         """Where the free-standing horizontal surfaces inside the storeys lie: (lower −
         upper)/(lower + upper), (lower + upper) as a share of the horizontal area and the
-        number of sample points counted; each
-        surface weighted by its area and its lever |1 − 2t| (t: height in the storey, 0 at
-        the floor), so what lies near mid-height (a mobile scanner's horizon band on the
-        walls) hardly counts.
+        number of sample points counted; each surface weighted by its area and its lever
+        |1 − 2t| (t: height in the storey, 0 at the floor), so what lies near mid-height (a
+        mobile scanner's horizon band on the walls) hardly counts.
 
         Inside a storey: between its highest floor and its lowest ceiling layer, off every
         dominant layer by twice its half-thickness and by the neighbourhood radius (near a

@@ -1,8 +1,10 @@
-"""Parameter dataclasses of the preprocessing and space-partitioning steps.
+"""Parameter dataclasses of the preprocessing stage (docs/method.md §1) and the plane
+extraction (§3.1).
 
-Defaults follow SPEC.md §6 (θ = 10°, histogram bins of 3 cm, maximum wall thickness
-0.3 m) and the TLS noise level of the synthetic presets (σ = 5 mm). Every field is in SI
-units: metres, radians, point counts.
+Defaults follow the thesis where it gives a value (θ = 10°, a z-histogram bin of 3 cm,
+tiles of about room size; docs/method.md §6); the inlier bands start at terrestrial-scanner
+noise and widen with the measured noise of the data. Every field is in SI units: metres,
+radians, point counts.
 """
 from __future__ import annotations
 
@@ -22,7 +24,8 @@ __all__ = [
 ]
 
 THETA = math.radians(10.0)
-"""SPEC.md §1: the angle tolerance θ ≤ 10° used for point clustering and plane merging."""
+"""The angle tolerance θ ≤ 10° of the point clustering, the alignment and the plane extraction
+(docs/method.md §1, §3.1), radians."""
 
 
 @dataclass(frozen=True)
@@ -40,13 +43,20 @@ class CleanParams:
     """k of the statistical filter: mean distance to the k nearest neighbours."""
     outlier_std_ratio: Factor = 3.0
     """An outlier's mean neighbour distance exceeds the cloud's mean by this many deviations."""
+    cluster_voxel: Metres = 0.5
+    """Edge of the coarse voxels whose 26-connected groups are the scan's point clusters,
+    metres (wider than a wall or slab is thick, so one building is one group)."""
+    min_cluster_share: Ratio = 0.05
+    """Groups with fewer points than this share of the largest group's are stray clusters
+    and removed before anything else; the extent used downstream is the building's (0: keep
+    every point)."""
     min_points: Count = 100
     """Fewer usable points than this is an error."""
 
 
 @dataclass(frozen=True)
 class NormalParams:
-    """PCA normals over a neighbourhood (SPEC.md §1 "Normals")."""
+    """PCA normals over a neighbourhood (docs/method.md §1 "Normals")."""
 
     radius: Metres = 0.10
     """Search radius of the neighbourhood, metres."""
@@ -68,7 +78,7 @@ class NormalParams:
 
 @dataclass(frozen=True)
 class AlignParams:
-    """Manhattan alignment from the normals (SPEC.md §1 "Manhattan alignment")."""
+    """Manhattan alignment from the normals (docs/method.md §1 "Manhattan alignment")."""
 
     max_normals: Count = 100_000
     """Random sample of normals used, for speed."""
@@ -95,10 +105,10 @@ class AlignParams:
 
 @dataclass(frozen=True)
 class StoreyParams:
-    """Storeys from the z histogram of horizontal points (SPEC.md §1 "Storeys")."""
+    """Storeys from the z histogram of horizontal points (docs/method.md §1 "Storeys")."""
 
     bin_size: Metres = 0.03
-    """Histogram bin of z, metres (SPEC.md §6: 3–5 cm)."""
+    """Histogram bin of z, metres (thesis: 3–5 cm, docs/method.md §6)."""
     min_layer_gap: Metres = 0.15
     """Two histogram peaks closer than this are one layer, metres (a slab is thicker)."""
     layer_half_width: Metres = 0.06
@@ -126,7 +136,7 @@ class StoreyParams:
 
 @dataclass(frozen=True)
 class ClassifyParams:
-    """Point clusters (SPEC.md §1 "Point clustering")."""
+    """Point clusters (docs/method.md §1 "Point clustering")."""
 
     angle_tolerance: Radians = THETA
     """θ: |n_z| ≤ sin θ is a wall point, |n_z| ≥ cos θ a floor/ceiling point, radians."""
@@ -134,15 +144,16 @@ class ClassifyParams:
 
 @dataclass(frozen=True)
 class PlaneParams:
-    """Multi-scale RANSAC plane extraction and global refinement (SPEC.md §3.1)."""
+    """Multi-scale RANSAC plane extraction and global refinement (docs/method.md §3.1)."""
 
     tile_size: Metres = 4.0
-    """Edge of the local voxels (tiles) in x and y, metres (SPEC: 3–5 m)."""
+    """Edge of the local voxels (tiles) in x and y, metres (thesis: 3–5 m, about a room)."""
     tile_overlap: Factor = 0.5
     """Tiles are enlarged by this on every side so walls on tile borders are seen whole."""
     distance_threshold: Metres = 0.02
-    """RANSAC inlier distance, metres; raised to ``noise_factor`` × the robust noise of
-    each plane's residuals when the data are noisier (mobile scans)."""
+    """RANSAC inlier distance, metres; raised to ``noise_factor`` × the robust noise of the
+    storey's floor heights (of each plane's residuals when no storeys are given) when the
+    data are noisier (mobile scans)."""
     noise_factor: Factor = 2.5
     """Inlier band in units of the plane's robust residual σ (1.4826 × MAD)."""
     max_distance_threshold: Metres = 0.05
@@ -162,8 +173,8 @@ class PlaneParams:
     half, radians."""
     min_fill: Ratio = 0.15
     """A plane's support must occupy at least this share of its bounding rectangle on the
-    plane (10 cm cells); occluded walls fill 0.3 and more, chance alignments of clutter
-    much less."""
+    plane (10 cm cells): occluded walls still fill a good part of it, chance alignments
+    of clutter do not."""
     max_rejections: Count = 5
     """Stop searching a tile after this many rejected hypotheses in a row (only clutter is
     left)."""
@@ -177,13 +188,15 @@ class PlaneParams:
     (sign ignored), radians; keeps perpendicular walls' points apart at corners."""
     merge_angle: Radians = math.radians(4.0)
     """Global refinement: merge planes closer than this in angle, radians. Departure from
-    SPEC.md (θ = 10°): non-Manhattan plans have walls meeting at 6–7° (syn_house), which
-    θ = 10° merged into one bent plane; locally fitted pieces of one wall agree within 1°."""
+    the thesis (θ = 10°, docs/method.md §3.1): non-Manhattan plans have walls meeting at a
+    few degrees, which θ would merge into one bent plane, while locally fitted pieces of one
+    wall agree far more closely."""
     merge_distance: Metres = 0.04
-    """... and whose supports lie within this of each other (median point-to-plane distance
-    in both directions), metres (≤ the data's nominal accuracy; SPEC.md §3.1). The larger
-    of the two planes' adaptive inlier bands is used instead when it is wider (noisy mobile
-    data, where the tails of one wall's noise otherwise form parallel planes ±2σ away)."""
+    """Global refinement: merge planes (within ``merge_angle``) whose supports lie within this
+    of each other (median point-to-plane distance in both directions), metres (≤ the data's
+    nominal accuracy; docs/method.md §3.1). The larger of the two planes' adaptive inlier
+    bands is used instead when it is wider (noisy mobile data, where the tails of one wall's
+    noise otherwise form parallel planes ±2σ away)."""
     merge_keep: Ratio = 0.9
     """A merge is undone when the refitted plane keeps less than this share of the two
     supports within its band (the two were not one plane)."""

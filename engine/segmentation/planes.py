@@ -1,4 +1,4 @@
-"""Multi-scale RANSAC planes with orientation and support constraints (SPEC.md §3.1).
+"""Multi-scale RANSAC planes with orientation and support constraints (docs/method.md §3.1).
 
 Method
 ------
@@ -25,12 +25,13 @@ In each tile a seeded RANSAC finds planes one after the other:
 *Global refinement.* Two planes of the same kind merge when the angle between them is below
 ``merge_angle`` and the median distance of each one's supporting points to the other is
 below ``merge_distance`` (the thesis uses the minimum distance; the median is the robust
-choice SPEC.md allows; for noisy data twice the planes' adaptive band, capped at
-``max_distance_threshold``, replaces ``merge_distance`` when larger). Merged planes are refitted on the union of their supports; rounds
-repeat until nothing merges. Finally every unassigned point of the same class within a
-plane's band (and agreeing normal) joins the nearest plane, and the planes are refitted.
+choice; for noisy data twice the planes' adaptive band, capped at ``max_distance_threshold``,
+replaces ``merge_distance`` when larger). Merged planes are refitted on the union of their
+supports; rounds repeat until nothing merges. Finally every unassigned point of the same
+class within a plane's band (and agreeing normal) joins the nearest plane, and the planes
+are refitted.
 
-Departures from SPEC.md: wall planes are fitted *exactly vertical* and floor/ceiling planes
+Departures from the thesis: wall planes are fitted *exactly vertical* and floor/ceiling planes
 *exactly horizontal* in the aligned frame (the orientation constraint θ is applied to the
 points' normals instead) — after Manhattan/vertical alignment this is more accurate than a
 free 3D fit on noisy, occluded walls.

@@ -1,4 +1,4 @@
-"""Storeys from the z histogram of horizontal points (SPEC.md §1 "Storeys").
+"""Storeys from the z histogram of horizontal points (docs/method.md §1 "Storeys").
 
 Method
 ------
@@ -23,7 +23,7 @@ Method
    next storey's floor (rooms of several heights: the storey reaches the highest; the
    lower ceilings are in :func:`detect_layers` and become cell levels).
 
-Departure from SPEC.md: the spec only says "peaks of the z histogram"; steps 2–4 are what
+Departure from the thesis: it only says "peaks of the z histogram"; steps 2–4 are what
 makes it work on real rooms where furniture tops outnumber the floor.
 """
 from __future__ import annotations

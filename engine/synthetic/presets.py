@@ -10,10 +10,10 @@ for some, model variants:
 * ``unscanned_room`` — a corridor with four rooms, one never scanned (its door closed);
 * ``syn_house`` — non-Manhattan: a common room, three private rooms and an open space;
 * ``hexagon_hall`` — a hexagonal hall with four small side rooms;
-* ``eval_demo`` — SPEC.md §4: a 6 m × 9 m × 2.5 m room plus a 1.8 m wide corridor;
+* ``eval_demo`` — docs/method.md §4: a 6 m × 9 m × 2.5 m room plus a 1.8 m wide corridor;
   variants ``inacc`` (outer walls 5 cm outwards), ``incomp`` (the corridor missing),
   ``incorr`` (an extra 4 m × 6 m room);
-* ``change_demo`` — SPEC.md §5: ``truth`` is the old model, the cloud scans the changed
+* ``change_demo`` — docs/method.md §5: ``truth`` is the old model, the cloud scans the changed
   building (two new walls around a storage room, one wall removed between two offices);
   ``cloud.fields["new"]`` is 1 on the new walls; ``variants["changed"]`` is the changed
   building's truth; the removed wall has ``attributes["removed_in_scan"] = True``.
@@ -214,7 +214,7 @@ ratios close to the thesis's Fig. 5.10, see :func:`_eval_demo_plan`)."""
 
 
 def _eval_demo_plan(extra_room=False, without_corridor=False, grow=0.0):
-    """SPEC.md §4 demonstration: Room 1 (6 m x 9 m x 2.5 m) and a 1.8 m x 9 m corridor along
+    """The demonstration of docs/method.md §4: Room 1 (6 m x 9 m x 2.5 m) and a 1.8 m x 9 m corridor along
     its long side, one door between them.
 
     Interior wall-face areas: room 75 m², corridor 54 m², of which 2 x 22.5 m² face each

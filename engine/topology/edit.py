@@ -1,4 +1,4 @@
-"""Manual rules: reclassification and door insertion (SPEC.md §2, rules 2 and 6).
+"""Manual rules: reclassification and door insertion (docs/method.md §2, rules 2 and 6).
 
 Both return a new :class:`BuildingModel` and re-derive everything downstream
 (connectivity → merge, containment, adjacency → doors → connectivity), so an edit never

@@ -1,4 +1,4 @@
-"""Topology graphs and shortest paths at two granularities (SPEC.md §2, "Topology").
+"""Topology graphs and shortest paths at two granularities (docs/method.md §2, "Topology").
 
 Nodes carry ``name``, ``type``, ``centroid`` (metres) and ``storey``; edges carry ``via``
 (the wall or door between two spaces, None for an open face) and ``weight`` (distance

@@ -1,0 +1,76 @@
+"""engine.pipeline: one preprocessing for both methods and the auto choice; far stray
+clusters removed before anything else."""
+import numpy as np
+import pytest
+
+import engine.pipeline as pipeline
+from engine.pointcloud import PointCloud
+from engine.reconstruct import reconstruct
+from engine.segmentation.cleaning import building_points
+from engine.synthetic import preset
+
+
+@pytest.fixture(scope="module")
+def office():
+    return preset("office_mw", seed=1, noise="tls", target_points=100_000)
+
+
+def _with_strays(cloud, seed=0):
+    """A 3,000-point cluster 800 m away and 200 points scattered over 2 km."""
+    rng = np.random.default_rng(seed)
+    far = np.r_[rng.normal([800.0, 300.0, 1.0], [3.0, 3.0, 1.0], (3000, 3)),
+                rng.uniform(-1000.0, 1000.0, (200, 3))]
+    far = far[np.min(np.abs(far[:, :2]), axis=1) > 100.0]  # none near the building
+    return PointCloud(xyz=np.r_[cloud.xyz, far]), len(far)
+
+
+def test_far_clusters_are_removed_and_the_building_kept(office):
+    cloud, n_far = _with_strays(office.cloud)
+    keep, groups = building_points(cloud.xyz, 0.5, 0.05)
+    n = len(office.cloud)
+    assert keep[:n].all()  # every point of the building
+    assert not keep[n:].any() and groups >= 2  # and none of the strays
+    model = reconstruct(cloud, "manhattan", rng=0)
+    assert len(model.spaces) == len(office.truth.spaces)
+    assert model.provenance.trace["cleaning"]["stray_points_removed"] == n_far
+
+
+@pytest.mark.parametrize("name, noise", [("two_storey_office", "tls"), ("two_storey_office", "mobile"),
+                                         ("syn_house", "mobile")])
+def test_a_building_is_one_cluster(name, noise):
+    """Storeys over a slab and rooms behind walls stay connected at 0.5 m voxels."""
+    sc = preset(name, seed=0, noise=noise, target_points=100_000)
+    keep, _ = building_points(sc.cloud.xyz, 0.5, 0.05)
+    assert keep.all()
+
+
+def test_auto_preprocesses_once(office, monkeypatch):
+    calls = []
+    real = pipeline.extract_planes
+
+    def counting(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(pipeline, "extract_planes", counting)
+    model = reconstruct(office.cloud, "auto", rng=0)
+    assert model.provenance.method == "manhattan" and len(calls) == 1
+
+
+def test_auto_and_generic_give_the_same_generic_model():
+    """Same seed, same preprocessing, same search: the same spaces (areas within 1e-6 m²)."""
+    sc = preset("hexagon_hall", seed=1, noise="tls", target_points=100_000)
+    a = reconstruct(sc.cloud, "auto", rng=0)
+    b = reconstruct(sc.cloud, "generic", rng=0)
+    assert a.provenance.method == "generic"
+    area = [sorted(s.geometry.plan_area_perimeter()[0] for s in m.spaces) for m in (a, b)]
+    assert len(area[0]) == len(area[1]) == len(sc.truth.spaces)
+    assert np.allclose(area[0], area[1], atol=1e-6)
+
+
+def test_prepared_carries_working_values_to_every_point(office):
+    prep = pipeline.preprocess(office.cloud, rng=0, planes=False)
+    full = prep.to_full(np.arange(len(prep.working)))
+    # each point's representative lies in its voxel: within the voxel's diagonal
+    d = np.linalg.norm(prep.cloud.xyz - prep.working.xyz[full], axis=1)
+    assert d.max() <= prep.voxel * np.sqrt(3) + 1e-9
