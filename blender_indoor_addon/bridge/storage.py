@@ -1,8 +1,10 @@
 """Model storage: the reconstructed model and its edit history, kept as text blocks in the .blend.
 
-The text :data:`MODEL_TEXT` holds the current model (``BuildingModel.to_json``); the text
-:data:`HISTORY_TEXT` holds a JSON list of the models that edits replaced (newest last), so
-"Revert last edit" works after the file is saved and reopened.
+The text :data:`MODEL_TEXT` holds the current model (``BuildingModel.to_dict`` as JSON); the
+text :data:`HISTORY_TEXT` holds a JSON list of the models that edits replaced (newest last),
+so "Revert last edit" works after the file is saved and reopened. Both are written indented
+with ``Text.from_string``: Blender's text blocks cost the square of a line's length to fill,
+so one long line of a 4 MB model took minutes; short lines take linear time.
 """
 from __future__ import annotations
 
@@ -27,11 +29,14 @@ def _text(name: str):
     return bpy.data.texts.get(name) or bpy.data.texts.new(name)
 
 
+def _write(name: str, data) -> None:
+    """Fill the text ``name`` with ``data`` as indented JSON (short lines: linear time)."""
+    _text(name).from_string(json.dumps(data, indent=1))
+
+
 def write_model_text(model_json: str) -> None:
     """Store ``model_json`` (a model's JSON) as the current model (:data:`MODEL_TEXT`)."""
-    text = _text(MODEL_TEXT)
-    text.clear()
-    text.write(model_json)
+    _write(MODEL_TEXT, json.loads(model_json))
 
 
 def stored_model():
@@ -43,22 +48,21 @@ def stored_model():
 
 
 def _history() -> list:
+    """The replaced models as dicts (older files kept them as JSON strings)."""
     text = bpy.data.texts.get(HISTORY_TEXT)
     if text is None or not text.as_string().strip():
         return []
-    return list(json.loads(text.as_string()))
+    return [json.loads(m) if isinstance(m, str) else m for m in json.loads(text.as_string())]
 
 
 def _write_history(items: list) -> None:
-    text = _text(HISTORY_TEXT)
-    text.clear()
-    text.write(json.dumps(items[-HISTORY_DEPTH:]))
+    _write(HISTORY_TEXT, items[-HISTORY_DEPTH:])
 
 
 def push_history(model_json: str) -> int:
     """Keep a model's JSON (before an edit) in the .blend; returns the history length."""
     items = _history()
-    items.append(model_json)
+    items.append(json.loads(model_json))
     _write_history(items)
     return min(len(items), HISTORY_DEPTH)
 
@@ -71,7 +75,7 @@ def history_length() -> int:
 def previous_model() -> BuildingModel | None:
     """The model before the last edit (the newest of the history), or None when there is none."""
     items = _history()
-    return BuildingModel.from_json(items[-1]) if items else None
+    return BuildingModel.from_dict(items[-1]) if items else None
 
 
 def drop_previous() -> None:

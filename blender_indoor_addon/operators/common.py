@@ -32,6 +32,14 @@ def stored_or_report(op, context):
     return model
 
 
+def scene_settings(op, context):
+    """The add-on's scene settings, or None after reporting that they are missing."""
+    settings = getattr(context.scene, "indoor", None)
+    if settings is None:
+        op.report({"ERROR"}, "the Indoor add-on's scene settings are missing")
+    return settings
+
+
 def has_model(context) -> bool:
     """A reconstructed model is stored in the .blend."""
     return bpy.data.texts.get(bridge.MODEL_TEXT) is not None

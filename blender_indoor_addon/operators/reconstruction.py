@@ -20,7 +20,7 @@ from ...engine.params import Params, load_params, params_from_dict, params_to_to
 from ...engine.reconstruct import reconstruct
 from .. import bridge
 from ..props import ENGINE_PARAMS, METHOD_ITEMS, engine_param_properties
-from .common import show_model_change
+from .common import scene_settings, show_model_change
 from .engine_call import engine_call
 
 __all__ = ["INDOOR_OT_reconstruct", "INDOOR_OT_cancel_reconstruct", "INDOOR_OT_load_parameters",
@@ -235,9 +235,8 @@ class INDOOR_OT_load_parameters(bpy.types.Operator, ImportHelper):
     filter_glob: StringProperty(default="*.toml", options={"HIDDEN"})
 
     def execute(self, context):
-        settings = getattr(context.scene, "indoor", None)
+        settings = scene_settings(self, context)
         if settings is None:
-            self.report({"ERROR"}, "the Indoor add-on's scene settings are missing")
             return {"CANCELLED"}
         path = bpy.path.abspath(self.filepath)
         with engine_call(self, context, path, progress_bar=False) as call:
@@ -265,9 +264,8 @@ class INDOOR_OT_save_parameters(bpy.types.Operator, ExportHelper):
     filter_glob: StringProperty(default="*.toml", options={"HIDDEN"})
 
     def execute(self, context):
-        settings = getattr(context.scene, "indoor", None)
+        settings = scene_settings(self, context)
         if settings is None:
-            self.report({"ERROR"}, "the Indoor add-on's scene settings are missing")
             return {"CANCELLED"}
         path = bpy.path.abspath(self.filepath)
         with engine_call(self, context, path, progress_bar=False) as call:
