@@ -220,14 +220,14 @@ class PointCloud:
         """JSON-ready facts: count, bounds (original frame), fields, spacing, scans.
 
         Besides the bounds of every point, ``core_bounds_min``/``core_bounds_max`` are the
-        bounds of the bulk of the points (:func:`_core_bounds`: percentiles widened through
+        bounds of the bulk of the points (:func:`core_bounds`: percentiles widened through
         gaps no larger than 0.5 m or 2 % of the extent, so a few far strays do not count);
         ``strays`` is the number of points farther than ``max(5 m, 0.5 x the largest core
         extent)`` from the core box and ``stray_max_distance_m`` the distance of the farthest
         of them from the core box in metres (0.0 when there is no stray).
         """
         b = self.bounds + self.offset
-        core = _core_bounds(self.xyz)
+        core = core_bounds(self.xyz)
         strays, far = _strays(self.xyz, core)
         core = core + self.offset
         return {
@@ -255,7 +255,7 @@ STRAY_CORE_FRACTION = 0.5
 _STRAY_BLOCK = 1 << 20
 
 
-def _core_bounds(xyz: np.ndarray, *, tail: float = 1.0, gap_m: float = 0.5, gap_rel: float = 0.02,
+def core_bounds(xyz: np.ndarray, *, tail: float = 1.0, gap_m: float = 0.5, gap_rel: float = 0.02,
                  sample: int = 200_000, rng=0) -> np.ndarray:
     """(2, 3) float64 — min and max corner of the bulk of the points (same frame as ``xyz``).
 

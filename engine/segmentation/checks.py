@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import ReconstructionError
 from ..geometry.normals import knn_pca
-from ..pointcloud import PointCloud
+from ..pointcloud import PointCloud, core_bounds
 
 __all__ = ["FrameParams", "FrameSample", "frame_sample", "sample_indices", "source_name", "planar_mask",
            "area_weights", "robust_extent", "check_shape", "checked_sample", "check_degenerate"]
@@ -158,6 +158,11 @@ def sample_indices(cloud: PointCloud, params: FrameParams, rng) -> tuple[np.ndar
     xyz = cloud.xyz[idx]
     ok = np.isfinite(xyz).all(axis=1)
     idx, xyz = idx[ok], xyz[ok]
+    if len(idx) > params.min_distinct:  # far strays would size the grid and the PCA extents
+        core = core_bounds(xyz)
+        inside = np.all((xyz >= core[0]) & (xyz <= core[1]), axis=1)
+        if inside.sum() >= params.min_distinct:
+            idx, xyz = idx[inside], xyz[inside]
     if len(idx) > m:
         lo, hi = np.percentile(xyz, [0.1, 99.9], axis=0)
         ext = hi - lo

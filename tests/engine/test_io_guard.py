@@ -612,7 +612,7 @@ def test_summary_strays_on_a_big_cloud_use_a_sample(monkeypatch):
     room = _room(rng, n=30_000)
     xyz = np.vstack([room, [[600.0, 4.0, 1.5]] * 3])
     monkeypatch.setattr(pc, "_STRAY_BLOCK", 4096)  # blocks: same answer
-    core = pc._core_bounds(xyz, sample=5000)
+    core = pc.core_bounds(xyz, sample=5000)
     count, far = pc._strays(xyz, core)
     assert count == 3 and 589.0 < far < 591.0
     np.testing.assert_allclose(core[1], [10, 8, 3], atol=0.03)

@@ -74,3 +74,13 @@ def test_prepared_carries_working_values_to_every_point(office):
     # each point's representative lies in its voxel: within the voxel's diagonal
     d = np.linalg.norm(prep.cloud.xyz - prep.working.xyz[full], axis=1)
     assert d.max() <= prep.voxel * np.sqrt(3) + 1e-9
+
+
+def test_far_strays_at_ground_level_do_not_make_the_cloud_look_flat(office):
+    """1 % of points spread over 2 km × 2 km but only ±50 m in z: the degenerate-cloud checks
+    judge the building, not the strays (they called such a scan flat)."""
+    from engine.segmentation.checks import check_degenerate
+
+    rng = np.random.default_rng(3)
+    strays = rng.uniform(-1000.0, 1000.0, (len(office.cloud) // 100, 3)) * [1.0, 1.0, 0.05]
+    check_degenerate(PointCloud(xyz=np.r_[office.cloud.xyz, strays], source="strays"))
