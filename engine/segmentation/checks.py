@@ -139,7 +139,7 @@ def source_name(cloud_or_sample) -> str:
     return cloud_or_sample.source or "point cloud"
 
 
-def sample_indices(cloud: PointCloud, params: FrameParams, rng) -> tuple[np.ndarray, np.ndarray]:
+def sample_indices(cloud: PointCloud, params: FrameParams, rng, core: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Indices of a spatially even sample of the cloud's finite, distinct points, and of the
     random pre-sample it was thinned from (for statistics of the rays, which thinning biases).
 
@@ -158,9 +158,9 @@ def sample_indices(cloud: PointCloud, params: FrameParams, rng) -> tuple[np.ndar
     xyz = cloud.xyz[idx]
     ok = np.isfinite(xyz).all(axis=1)
     idx, xyz = idx[ok], xyz[ok]
-    if len(idx) > params.min_distinct:  # far strays would size the grid and the PCA extents
-        core = core_bounds(xyz)
-        inside = np.all((xyz >= core[0]) & (xyz <= core[1]), axis=1)
+    if core and len(idx) > params.min_distinct:  # without the far strays (pointcloud.core_bounds)
+        lo, hi = core_bounds(xyz)
+        inside = np.all((xyz >= lo) & (xyz <= hi), axis=1)
         if inside.sum() >= params.min_distinct:
             idx, xyz = idx[inside], xyz[inside]
     if len(idx) > m:
@@ -318,7 +318,19 @@ def checked_sample(cloud: PointCloud, params: FrameParams, scale: Optional[float
     """The sample after the shape checks (before its k-d tree) and the structure checks."""
     if len(cloud) < params.min_distinct:
         check_shape(cloud, cloud.xyz, params, scale)
-    idx, raw = sample_indices(cloud, params, rng)
+    try:
+        return _checked(cloud, params, scale, rng, core=False)
+    except ReconstructionError as first:
+        # far strays (1 % of the points spread over kilometres) can size the sample's grid and
+        # its PCA extents: judge the core of the cloud before calling it degenerate
+        try:
+            return _checked(cloud, params, scale, rng, core=True)
+        except ReconstructionError:
+            raise first from None
+
+
+def _checked(cloud: PointCloud, params: FrameParams, scale: Optional[float], rng, core: bool):
+    idx, raw = sample_indices(cloud, params, rng, core=core)
     if len(idx) == 0:
         raise ReconstructionError("no point has finite coordinates", cloud.source or None)
     e = check_shape(cloud, cloud.xyz[idx], params, scale)
