@@ -23,6 +23,15 @@ class UsageError(InputError):
     exit code 2 like any other usage error, on one line."""
 
 
+def eta_text(elapsed: float, fraction: float) -> str:
+    """"~N s left": the elapsed time extrapolated over the fraction done, once there is enough
+    of both to go on (5 % done and 2 s spent); "" before, and when done."""
+    if fraction >= 1.0 or fraction < 0.05 or elapsed < 2.0:
+        return ""
+    left = elapsed * (1.0 - fraction) / fraction
+    return f"~{left:.0f} s left" if left < 120 else f"~{left / 60:.0f} min left"
+
+
 class ConsoleProgress:
     """A one-line progress bar on stderr (silent when ``quiet`` or stderr is not a tty)."""
 
@@ -43,7 +52,8 @@ class ConsoleProgress:
         done = int(round(width * fraction))
         bar = "#" * done + "-" * (width - done)
         el = time.perf_counter() - self._t0
-        self.stream.write(f"\r{self.label[:30]:30s} [{bar}] {100 * fraction:5.1f}% {el:6.1f}s {message[:30]:30s}")
+        self.stream.write(f"\r{self.label[:30]:30s} [{bar}] {100 * fraction:5.1f}% {el:6.1f}s "
+                          f"{eta_text(el, fraction):>10s} {message[:30]:30s}")
         if fraction >= 1.0:
             self.stream.write("\n")
         self.stream.flush()

@@ -113,3 +113,13 @@ def test_convert_set_is_recorded_in_the_provenance(scan, tmp_path, capsys):
     model = BuildingModel.from_json(out / "office.json")
     assert model.provenance.method == "generic"
     assert _find(model.provenance.parameters, "cells", "min_wall_area") == 0.7
+
+
+def test_eta_extrapolates_the_elapsed_time_once_there_is_enough_to_go_on():
+    from engine.cli.console import eta_text
+
+    assert eta_text(1.0, 0.5) == ""  # too early to say
+    assert eta_text(10.0, 0.02) == ""
+    assert eta_text(10.0, 0.25) == "~30 s left"
+    assert eta_text(60.0, 0.25) == "~3 min left"
+    assert eta_text(60.0, 1.0) == ""
