@@ -23,6 +23,7 @@ from .errors import InputError, ReconstructionError, printable
 from .fileutil import atomic_write_text
 from .grammar.generic import generic_model
 from .grammar.manhattan import manhattan_model
+from .ifc import IfcWriteParams
 from .ifc import write_ifc as _write_ifc
 from .io import read_point_cloud
 from .jobs import check_output_dir
@@ -146,7 +147,7 @@ class ConvertResult:
 def convert_file(path: str | os.PathLike, out_dir: str | os.PathLike, *, method: str = "auto",
                  seed: int = 0, write_ifc: bool = True, params=None, progress=None,
                  should_stop=None, name: Optional[str] = None, units: str = "auto",
-                 up: str = "auto") -> ConvertResult:
+                 up: str = "auto", ifc_parts: bool = False) -> ConvertResult:
     """Read one scan, reconstruct, write ``<name>.json`` (model + report) and ``<name>.ifc``.
 
     The output folder is checked first (:func:`engine.jobs.check_output_dir`), so a folder
@@ -160,6 +161,9 @@ def convert_file(path: str | os.PathLike, out_dir: str | os.PathLike, *, method:
 
     Parameters
     ----------
+    ifc_parts : bool
+        Also write the parts of merged spaces as ``PARTIAL`` IfcSpace (default: one IfcSpace
+        per room; the JSON always has every part).
     name : str, optional
         Output file stem; default the scan's stem (a batch passes distinct names, see
         :func:`engine.jobs.output_stems`).
@@ -195,7 +199,7 @@ def convert_file(path: str | os.PathLike, out_dir: str | os.PathLike, *, method:
         if write_ifc:
             p(0.92, "writing IFC")
             ifc_path = os.path.join(out_dir, name + ".ifc")
-            _write_ifc(model, ifc_path)
+            _write_ifc(model, ifc_path, params=IfcWriteParams(parts=ifc_parts))
             written = ifc_path
         report["timings_s"] = {"read": round(t_read, 3), "total": round(time.perf_counter() - t0, 3)}
         data = model.to_dict()

@@ -12,7 +12,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ...engine.errors import ReconstructionError
-from ...engine.ifc import write_ifc
+from ...engine.ifc import IfcWriteParams, write_ifc
 from ...engine.io import read_point_cloud
 from ...engine.segmentation.frame import normalize_frame
 from .. import bridge
@@ -147,6 +147,9 @@ class INDOOR_OT_export_ifc(bpy.types.Operator, ExportHelper):
     filter_glob: StringProperty(default="*.ifc", options={"HIDDEN"})
     schema: EnumProperty(name="Schema", items=(("IFC4", "IFC4", ""), ("IFC2X3", "IFC2X3", "")),
                          default="IFC4")
+    parts: BoolProperty(name="Space parts", default=IfcWriteParams().parts,
+                        description="Also write the parts of merged spaces (cuboids, cells) as PARTIAL "
+                                    "IfcSpace; off: one IfcSpace per room, as area schedules expect")
     open_in_bonsai: BoolProperty(name="Open in Bonsai", default=False,
                                  description="Open the written file with the Bonsai (BlenderBIM) add-on "
                                              "when it is installed and enabled")
@@ -159,7 +162,8 @@ class INDOOR_OT_export_ifc(bpy.types.Operator, ExportHelper):
         with engine_call(self, context, progress_bar=False) as call:
             model = bridge.stored_model()
             if model is not None:
-                path = write_ifc(model, bpy.path.abspath(self.filepath), schema=self.schema)
+                path = write_ifc(model, bpy.path.abspath(self.filepath), schema=self.schema,
+                                 params=IfcWriteParams(parts=self.parts))
         if call.failed:
             return {"CANCELLED"}
         if model is None:

@@ -29,6 +29,9 @@ def add_convert(sub) -> None:
                    help="which axis of the scan points up; auto detects y-up and upside-down scans from "
                         "the floor and ceiling planes and rotates them (default auto)")
     p.add_argument("--no-ifc", action="store_true", help="write only the JSON model and report")
+    p.add_argument("--ifc-parts", action="store_true",
+                   help="also write the parts of merged spaces (cuboids, cells) as PARTIAL IfcSpace; "
+                        "by default the IFC has one IfcSpace per room")
     add_params_options(p)
     p.set_defaults(func=cmd_convert)
 
@@ -43,7 +46,8 @@ def cmd_convert(args) -> int:
         with polled():  # SIGTERM: the engine stops at its next progress check
             r = reconstruct.convert_file(path, args.out, method=args.method, seed=args.seed, name=name,
                                          units=args.units, up=args.up, write_ifc=not args.no_ifc,
-                                         params=params, progress=bar, should_stop=stop_requested)
+                                         ifc_parts=args.ifc_parts, params=params, progress=bar,
+                                         should_stop=stop_requested)
         return {"input": r.report["source"]["path"], "json": r.json_path, "ifc": r.ifc_path,
                 **r.report["summary"], "method": r.model.provenance.method,
                 "seconds": r.report["timings_s"]["total"]}

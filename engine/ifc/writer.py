@@ -4,8 +4,9 @@ The file follows the "simple model from scratch" recipe of IfcOpenShell: project
 representation contexts (Model/Body, Model/Axis, Model/FootPrint), then the spatial tree
 site → building → storeys → spaces, then the elements:
 
-* ``IfcSpace`` per interior space; a merged space aggregates its parts (``PARTIAL``
-  sub-spaces); ``IfcExternalSpatialElement`` per exterior space;
+* ``IfcSpace`` per interior space (with ``IfcWriteParams.parts``, a merged space also
+  aggregates its parts as ``PARTIAL`` sub-spaces); ``IfcExternalSpatialElement`` per exterior
+  space;
 * ``IfcWall`` / ``IfcSlab`` (an ``IfcExtrudedAreaSolid`` when the shape is a vertical
   prism, an ``IfcFacetedBrep`` otherwise), ``IfcDoor`` filling an ``IfcOpeningElement``
   that voids its wall;
@@ -86,6 +87,9 @@ class IfcWriteParams:
     """Smallest common face area (m²) written as a space boundary."""
     rigid_tol: float = 1e-6
     """Tolerance on ``RᵀR = I`` for the model transform to go into the site placement."""
+    parts: bool = False
+    """Also write the parts of merged spaces (the grammar's cuboids and cells) as ``PARTIAL``
+    IfcSpace under their space; by default one IfcSpace per room, as area schedules expect."""
     geometric_boundaries: bool = True
     """Also write one-sided boundaries for walls and slabs touching a space without a relation."""
     georeference: str = "placement"
@@ -491,7 +495,7 @@ class _Writer:
         if len(g.faces) < 4 or len(g.vertices) < 4 or g.volume() <= 0:
             log.warning("shape %s has no closed geometry: not written", s.id)
             return False
-        if not s.is_space and not s.active:
+        if not s.active and (not s.is_space or not self.params.parts):
             log.debug("inactive %s %s not written", s.type.value, s.id)
             return False
         return True

@@ -101,3 +101,20 @@ def test_segment_voxel_and_bad_key(tmp_path, capsys):
         assert [d["file"] for d in done] == [scan] and done[0]["cells"] >= 1
         working.append(json.loads(open(done[0]["json"]).read())["working_points"])
     assert working[1] < working[0]  # --voxel sets the working cloud's voxel
+
+
+def test_convert_writes_one_ifcspace_per_room_unless_asked_for_the_parts(small_scan, tmp_path, capsys):
+    import ifcopenshell
+
+    scan, _ = small_scan
+    counts = {}
+    for flag in ([], ["--ifc-parts"]):
+        out = tmp_path / ("parts" if flag else "rooms")
+        assert main(["convert", scan, "-o", str(out), "--method", "manhattan", "--quiet", *flag]) == 0
+        model = BuildingModel.from_json(out / "office.json")
+        f = ifcopenshell.open(str(out / "office.ifc"))
+        counts[bool(flag)] = (len(f.by_type("IfcSpace")), len(model.spaces),
+                              sum(s.CompositionType == "PARTIAL" for s in f.by_type("IfcSpace")))
+    n_ifc, n_rooms, partial = counts[False]
+    assert n_ifc == n_rooms and partial == 0  # every space of the model, none of its parts
+    assert counts[True][0] > n_rooms and counts[True][2] > 0  # the grammar's cuboids as PARTIAL

@@ -99,16 +99,21 @@ def _footprint_iou(a, b):
     return pa.intersection(pb).area / pa.union(pb).area
 
 
+LOSSLESS = IfcWriteParams(parts=True)
+"""Parts of merged spaces included: the file reads back as the model."""
+
+
 def _rels(model):
     return sorted((r.kind, r.a, r.b, r.via) for r in model.relations)
 
 
 @pytest.fixture(scope="module")
 def written(tmp_path_factory):
-    """The hand model rotated by 30° with a georeferencing-size offset, written once."""
+    """The hand model rotated by 30° with a georeferencing-size offset, written once with the
+    parts of merged spaces (the lossless file the round-trip tests read back)."""
     m = hand_model(rot_z(30, (5, -3, 0.5)), offset=(2.5e6, 5.6e6, 120.0))
     path = str(tmp_path_factory.mktemp("ifc") / "hand.ifc")
-    assert write_ifc(m, path) == path
+    assert write_ifc(m, path, params=LOSSLESS) == path
     return m, path
 
 
@@ -270,7 +275,7 @@ def test_round_trip_footprints_relations_and_attributes(written):
 def test_identity_frame_ifc4x3_and_non_rigid_transform(tmp_path):
     m = hand_model()
     p4x3 = str(tmp_path / "hand4x3.ifc")
-    write_ifc(m, p4x3, schema="IFC4X3")
+    write_ifc(m, p4x3, schema="IFC4X3", params=LOSSLESS)
     assert ifcopenshell.open(p4x3).schema.upper().startswith("IFC4X3")
     assert _errors(p4x3) == []
     r = read_ifc(p4x3)
@@ -280,7 +285,7 @@ def test_identity_frame_ifc4x3_and_non_rigid_transform(tmp_path):
     s = np.diag([1.5, 1.5, 1.0, 1.0])
     ms = m.with_(transform=s)
     ps = str(tmp_path / "scaled.ifc")
-    write_ifc(ms, ps)
+    write_ifc(ms, ps, params=LOSSLESS)
     assert _errors(ps) == []
     rs = read_ifc(ps)
     assert np.allclose(rs["r1"].bounds, m["r1"].bounds, atol=1e-6)
@@ -479,7 +484,7 @@ def test_model_without_storeys_and_odd_shapes(tmp_path):
 def test_offset_as_map_conversion(tmp_path):
     m = hand_model(rot_z(-15, (1, 2, 0)), offset=(4.5e5, 5.4e6, 35.0))
     path = str(tmp_path / "geo.ifc")
-    write_ifc(m, path, params=IfcWriteParams(georeference="map_conversion", crs_name="EPSG:25832"))
+    write_ifc(m, path, params=IfcWriteParams(georeference="map_conversion", crs_name="EPSG:25832", parts=True))
     assert _errors(path) == []
     f = ifcopenshell.open(path)
     (mc,) = f.by_type("IfcMapConversion")
@@ -516,3 +521,19 @@ def test_progress_and_cancel(tmp_path):
     assert not out.exists()
     with pytest.raises(Cancelled):
         read_ifc(path, should_stop=lambda: True)
+
+
+def test_by_default_one_ifcspace_per_room(tmp_path):
+    """Area schedules list IfcSpace: the merged room r2 is one space, its parts r2a and r2b are
+    not written (they are with ``parts=True``), and the file still validates."""
+    m = hand_model()
+    path = str(tmp_path / "rooms.ifc")
+    write_ifc(m, path)
+    assert _errors(path, express_rules=True) == []
+    f = ifcopenshell.open(path)
+    rooms = {s.Name for s in f.by_type("IfcSpace")}
+    assert rooms == {m[s.id].name or s.id for s in m.spaces} and len(rooms) == len(m.spaces)
+    assert not [s for s in f.by_type("IfcSpace") if s.CompositionType == "PARTIAL"]
+    lossless = str(tmp_path / "parts.ifc")
+    write_ifc(m, lossless, params=LOSSLESS)
+    assert len(ifcopenshell.open(lossless).by_type("IfcSpace")) > len(rooms)
