@@ -4,13 +4,15 @@ For each preset and noise model (one seed, 300k points; quick: three presets, 10
 ``reconstruct(cloud, "auto")`` and ``reconstruct(cloud, <the method auto chose>)`` on the
 same scan. Figures: method and Manhattan score, rooms found and true, mean footprint IoU of
 the true rooms (each matched one-to-one with its best model room), side-face completeness
-and correctness at b = 10 cm, the per-stage timings the model records, and the seconds
-``auto`` costs beyond running the chosen method directly (the method choice).
+and correctness at b = 10 cm, the per-stage timings the model records, the seconds
+``auto`` costs beyond running the chosen method directly (the method choice), and the
+seconds of writing the IFC and the model JSON with their share of the whole convert.
 """
 from __future__ import annotations
 
 import logging
 import os
+import tempfile
 import time
 
 import numpy as np
@@ -56,6 +58,7 @@ def room_scores(model, truth) -> tuple[int, float]:
 
 def _one(name: str, noise: str, points: int) -> dict:
     from engine.evaluation import EvaluationParams, evaluate
+    from engine.ifc import write_ifc
     from engine.reconstruct import reconstruct
     from engine.synthetic import preset
 
@@ -67,6 +70,13 @@ def _one(name: str, noise: str, points: int) -> dict:
     t0 = time.perf_counter()
     direct = reconstruct(sc.cloud, method, rng=0)
     t_direct = time.perf_counter() - t0
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        write_ifc(model, os.path.join(tmp, "m.ifc"))
+        t_ifc = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        model.to_json(os.path.join(tmp, "m.json"))
+        t_json = time.perf_counter() - t0
     matched, iou = room_scores(model, sc.truth)
     res = evaluate(model, sc.truth, EvaluationParams(buffers=(0.1,), groups=("wall",)))
     out = {
@@ -79,6 +89,8 @@ def _one(name: str, noise: str, points: int) -> dict:
         "direct_same_rooms": len(direct.spaces) == len(model.spaces),
         "auto_s": round(t_auto, 2), "direct_s": round(t_direct, 2),
         "choice_overhead_s": round(t_auto - t_direct, 2),
+        "ifc_s": round(t_ifc, 3), "json_s": round(t_json, 3),
+        "writing_share": round((t_ifc + t_json) / (t_auto + t_ifc + t_json), 3),
         "timings": {k: round(float(v), 3) for k, v in model.provenance.timings.items()
                     if isinstance(v, (int, float))},
     }
@@ -94,4 +106,5 @@ def run(out_dir: str, quick: bool = False) -> dict:
     return {"runs": runs, "load_average": list(os.getloadavg()),
             "mean_iou": round(float(np.mean([r["mean_iou"] for r in runs])), 4),
             "auto_s_total": round(sum(r["auto_s"] for r in runs), 2),
-            "choice_overhead_s_total": round(sum(r["choice_overhead_s"] for r in runs), 2)}
+            "choice_overhead_s_total": round(sum(r["choice_overhead_s"] for r in runs), 2),
+            "writing_share_max": max(r["writing_share"] for r in runs)}
