@@ -18,6 +18,8 @@ import time
 
 import numpy as np
 
+from bench import peak_rss_mb
+
 from engine.change import NEW, detect_changes, transform_model
 from engine.evaluation import evaluate
 from engine.model import BuildingModel, Polyhedron, Shape, ShapeType, Storey
@@ -45,17 +47,6 @@ def _grid_model(n=3, jitter=0.0, skip=(), extra=False, seed=0) -> BuildingModel:
         shapes.append(Shape(id=f"room_{i}_{j}", type=ShapeType.INTERIOR, name=f"Room {i},{j}",
                             geometry=Polyhedron.box((box[0], box[1], 0.0), (box[2], box[3], HEIGHT_M))))
     return BuildingModel(shapes=tuple(shapes), storeys=(Storey(0, 0.0, HEIGHT_M),))
-
-
-def _hwm_mb() -> float:
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return float("nan")
 
 
 def _bench_evaluation() -> dict:
@@ -105,7 +96,7 @@ def _bench_changes(points: int) -> dict:
             "residual_m": res.registration.residual, "registration_error_max_m": float(err),
             "new_wall_precision": tp / max(pred.sum(), 1), "new_wall_recall": tp / max(truth.sum(), 1),
             "new_points_share": float(np.mean(res.point_type == NEW)),
-            "redundant": res.redundant, "peak_rss_mb": round(_hwm_mb(), 1)}
+            "redundant": res.redundant, "peak_rss_mb": round(peak_rss_mb(), 1)}
 
 
 def run(out_dir: str, quick: bool) -> dict:

@@ -11,25 +11,15 @@ cuboids typed right, room count, side-face completeness/correctness at b = 10 cm
 from __future__ import annotations
 
 import os
-import resource
 import time
 
 import numpy as np
 
+from bench import peak_rss_mb
+
 SIZES = (1_000_000,)
 QUICK_SIZES = (200_000,)
 TARGET_S = 10.0
-
-
-def _peak_mb() -> float:
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def _truth_type(truth, c):
@@ -101,7 +91,7 @@ def _one(n: int, noise: str) -> dict:
         best = np.where(inside, np.minimum(best, np.abs(pts[:, a] - lo[a])), best)
     fin = best[np.isfinite(best)]
     out["wall_points_median_distance_m"] = float(np.median(fin)) if len(fin) else None
-    out["peak_rss_mb"] = _peak_mb()
+    out["peak_rss_mb"] = peak_rss_mb()
     out["load_average"] = list(os.getloadavg())
     return out
 

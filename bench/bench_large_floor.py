@@ -12,11 +12,12 @@ from __future__ import annotations
 import logging
 import math
 import os
-import resource
 import tempfile
 import time
 
 import numpy as np
+
+from bench import peak_rss_mb
 
 log = logging.getLogger(__name__)
 
@@ -59,17 +60,6 @@ def floor_plan():
                      interior_thickness=0.15, exterior_thickness=0.3)
 
 
-def _peak_mb() -> float:
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
 def run(out_dir: str, quick: bool = False) -> dict:
     from engine.ifc import write_ifc
     from engine.pointcloud import PointCloud
@@ -108,7 +98,7 @@ def run(out_dir: str, quick: bool = False) -> dict:
            "timings": {k: round(float(v), 2) for k, v in model.provenance.timings.items()
                        if isinstance(v, (int, float))},
            "spaces": len(model.spaces), "spaces_under_5m2": int(sum(a < 5.0 for a in areas)),
-           "rooms_truth": len(plan.rooms), "walls": len(model.walls), "peak_rss_mb": round(_peak_mb()),
+           "rooms_truth": len(plan.rooms), "walls": len(model.walls), "peak_rss_mb": round(peak_rss_mb()),
            "load_average": list(os.getloadavg()), "target_seconds": 15.0}
     log.info("large floor: %s", out)
     return out

@@ -11,15 +11,6 @@ import blender_util as bu  # noqa: E402  (tests/addon/ is on the path: pytest's 
 pytestmark = pytest.mark.blender
 
 
-@pytest.fixture(scope="module")
-def addon():
-    mod = bu.addon_module()
-    mod.register()
-    yield mod
-    # unregister before the process ends: the bpy module hangs at exit with classes registered
-    mod.unregister()
-
-
 @pytest.fixture
 def scene(addon):
     return bu.fresh_scene()

@@ -17,14 +17,6 @@ pytestmark = pytest.mark.blender
 
 
 @pytest.fixture(scope="module")
-def addon():
-    mod = bu.addon_module()
-    mod.register()
-    yield mod
-    mod.unregister()  # the bpy module hangs at exit with classes registered
-
-
-@pytest.fixture(scope="module")
 def office():
     return bu.engine_module("synthetic").preset("office_mw", seed=1, target_points=20_000)
 

@@ -13,14 +13,6 @@ pytestmark = pytest.mark.blender
 
 
 @pytest.fixture(scope="module")
-def addon():
-    mod = bu.addon_module()
-    mod.register()
-    yield mod
-    mod.unregister()
-
-
-@pytest.fixture(scope="module")
 def model(synthetic_model):
     return synthetic_model("generic", "syn_house", 0, "tls", 100_000)
 
