@@ -59,8 +59,9 @@ class Prepared:
         plane id, -1 for none).
     working_index : (m,) int64 — index of each working point in ``cloud``.
     voxel : float — the voxel edge used, metres.
-    spacing : float — point spacing σ of the input's sparsest tenth, metres
-        (:func:`engine.geometry.spacing.estimate_spacing`).
+    spacing : float or None — point spacing σ of the input's sparsest tenth, metres
+        (:func:`engine.geometry.spacing.estimate_spacing`); measured with ``full_normals``
+        (the Manhattan grammar's input), else None.
     labels : (m,) int8 — point clusters of the working cloud.
     storeys : list of Storey; ``storeys_found`` False when they are the fallback (one
         storey between the 1st and 99th percentile of the floor/ceiling points).
@@ -75,7 +76,7 @@ class Prepared:
     working: PointCloud
     working_index: np.ndarray
     voxel: float
-    spacing: float
+    spacing: Optional[float]
     labels: np.ndarray
     storeys: list
     storeys_found: bool = True
@@ -177,10 +178,11 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
         log.info("%s: %d points in %d far clusters removed", cloud.source or "cloud", (~keep).sum(), groups)
         full = full.subset(keep)
     t["strays"] = time.perf_counter() - t0
-    t1 = time.perf_counter()
-    spacing = estimate_spacing(full.xyz)
-    t["spacing"] = time.perf_counter() - t1
+    spacing = None  # only the Manhattan grammar reads it
     if full_normals:  # the working cloud then shares them
+        t1 = time.perf_counter()
+        spacing = estimate_spacing(full.xyz)
+        t["spacing"] = time.perf_counter() - t1
         t1 = time.perf_counter()
         p(0.0, "normals")
         full = full_cloud_normals(full, params, spacing)

@@ -49,6 +49,7 @@ import numpy as np
 
 from ..errors import EmptyCloudError, ReconstructionError
 from ..geometry.normals import knn_normals
+from ..geometry.spacing import estimate_spacing
 from ..model import BuildingModel, Provenance, Shape, ShapeType, Storey
 from ..pipeline import Prepared, align, full_cloud_normals, preprocess
 from ..pointcloud import PointCloud
@@ -454,12 +455,13 @@ def manhattan_model(prep: Prepared, params: Optional[ManhattanParams] = None, *,
     t0 = time.perf_counter()
     seed = int(rng.integers(2**31))
     p(0.0, "Manhattan alignment")
-    prep = align(prep, rng=seed, cloud=full_cloud_normals(prep.cloud, prep.params, prep.spacing))
+    spacing = prep.spacing if prep.spacing is not None else estimate_spacing(prep.cloud.xyz)
+    prep = align(prep, rng=seed, cloud=full_cloud_normals(prep.cloud, prep.params, spacing))
     aligned = prep.cloud.transformed(np.linalg.inv(prep.transform))  # with normals (align)
     storeys = prep.storeys if prep.storeys_found else None
     base = params or ManhattanParams()
     if base.spacing is None:
-        base = base.with_(spacing=prep.spacing)  # measured once, by the preprocessing
+        base = base.with_(spacing=spacing)  # measured once
     params = base if base.complete else params_from_data(aligned.xyz, base, rng=seed)
     t_pre = time.perf_counter() - t0
     p.check()
