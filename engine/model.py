@@ -51,13 +51,15 @@ _VERTICAL_NZ = 0.17364817766693033  # sin(10°): |n_z| below this is a vertical 
 
 
 class ShapeType(str, enum.Enum):
-    """Semantic type of a shape (docs/method.md §2: ∅, interior space, exterior space, wall)."""
+    """Semantic type of a shape (docs/method.md §2: ∅, interior space, exterior space, wall;
+    and the building elements: doors (and doorless openings), windows, slabs)."""
 
     NONE = "none"
     INTERIOR = "interior"
     EXTERIOR = "exterior"
     WALL = "wall"
     DOOR = "door"
+    WINDOW = "window"
     SLAB = "slab"
 
     @classmethod
@@ -603,6 +605,14 @@ class BuildingModel:
     def doors(self) -> list[Shape]:
         return self.of_type(ShapeType.DOOR)
 
+    @property
+    def windows(self) -> list[Shape]:
+        return self.of_type(ShapeType.WINDOW)
+
+    @property
+    def slabs(self) -> list[Shape]:
+        return self.of_type(ShapeType.SLAB)
+
     def leaves(self, shape_id: str) -> list[Shape]:
         """The innermost parts of a shape (itself when it has no children of its type)."""
         s = self[shape_id]
@@ -787,6 +797,8 @@ class BuildingModel:
             "sub_spaces": len([s for s in self.of_type(ShapeType.INTERIOR, active=None)]),
             "walls": len(self.walls),
             "doors": len(self.doors),
+            "windows": len(self.windows),
+            "slabs": len(self.slabs),
             "exterior": len(self.of_type(ShapeType.EXTERIOR)),
             "adjacency": len(self.relations_of("adjacency")),
             "connectivity": len(self.relations_of("connectivity")),

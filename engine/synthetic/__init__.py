@@ -42,6 +42,7 @@ from .scan import (
     SceneMesh,
     build_scene_mesh,
     scanner_positions,
+    scan_mesh,
     simulate_scan,
 )
 
@@ -51,5 +52,5 @@ __all__ = [
     "rooms_from_partition", "plan_geometry", "build_truth", "door_footprint",
     "FurnishParams", "furnish",
     "LABEL_WALL", "LABEL_FLOOR", "LABEL_CEILING", "LABEL_CLUTTER", "LABEL_NAMES",
-    "ScanParams", "ScanResult", "SceneMesh", "build_scene_mesh", "scanner_positions", "simulate_scan",
+    "ScanParams", "ScanResult", "SceneMesh", "build_scene_mesh", "scanner_positions", "simulate_scan", "scan_mesh",
 ]

@@ -41,6 +41,7 @@ __all__ = [
     "build_scene_mesh",
     "scanner_positions",
     "simulate_scan",
+    "scan_mesh",
 ]
 
 log = logging.getLogger(__name__)
@@ -519,13 +520,37 @@ def simulate_scan(plan: FloorPlan, params: ScanParams = ScanParams(), *,
     InputError
         When there is no scanner position (every room unscanned).
     """
-    rng = np.random.default_rng(rng)
-    prog = Progress.wrap(progress, should_stop)
     g = plan_geometry(plan) if geometry is None else geometry
     mesh = build_scene_mesh(plan, g, clutter=clutter)
     pos = scanner_positions(plan, params, g) if positions is None else np.asarray(positions, float).reshape(-1, 3)
     if len(pos) == 0:
         raise InputError(f"plan {plan.name!r}: no scanner position (no room is scanned)")
+    return scan_mesh(mesh, pos, params, rng=rng, source=f"synthetic:{plan.name}", progress=progress,
+                     should_stop=should_stop)
+
+
+def scan_mesh(mesh: SceneMesh, positions: np.ndarray, params: ScanParams = ScanParams(), *, rng=None,
+              source: str = "synthetic", progress=None, should_stop=None) -> ScanResult:
+    """Cast the scanner's rays from every position into a scene mesh (any mesh: a plan's,
+    or one tessellated from an IFC model).
+
+    Parameters
+    ----------
+    mesh : SceneMesh — ``labels`` index ``params.reflectance``.
+    positions : (k, 3) float64 — scanner origins, metres (k ≥ 1).
+    params : ScanParams (angular step or target point count, ranges, noise).
+    rng : numpy Generator, int or None — azimuth offsets and range noise.
+    source : text stored as the cloud's source.
+
+    Returns
+    -------
+    ScanResult (see :func:`simulate_scan`).
+    """
+    rng = np.random.default_rng(rng)
+    prog = Progress.wrap(progress, should_stop)
+    pos = np.asarray(positions, float).reshape(-1, 3)
+    if len(pos) == 0:
+        raise InputError(f"{source}: no scanner position")
     scene, o3d = _make_scene(mesh)
     prog(0.02, "ray casting")
     offsets = rng.uniform(0.0, 2 * math.pi, len(pos))
@@ -568,7 +593,7 @@ def simulate_scan(plan: FloorPlan, params: ScanParams = ScanParams(), *,
         scan_index=np.concatenate(sidx),
         scanner_positions=pos,
         fields={"label": np.concatenate(lab).astype(np.int32)},
-        source=f"synthetic:{plan.name}",
+        source=source,
     )
     log.info("simulated %d points from %d positions (step %.3f°)", len(cloud), len(pos), math.degrees(step))
     return ScanResult(cloud, np.concatenate(wall), np.concatenate(room), step)
