@@ -601,17 +601,9 @@ class BuildingModel:
     def walls(self) -> list[Shape]:
         return self.of_type(ShapeType.WALL)
 
-    @property
-    def doors(self) -> list[Shape]:
-        return self.of_type(ShapeType.DOOR)
-
-    @property
-    def windows(self) -> list[Shape]:
-        return self.of_type(ShapeType.WINDOW)
-
-    @property
-    def slabs(self) -> list[Shape]:
-        return self.of_type(ShapeType.SLAB)
+    doors = property(lambda self: self.of_type(ShapeType.DOOR), doc="Active doors and doorless openings.")
+    windows = property(lambda self: self.of_type(ShapeType.WINDOW), doc="Active windows.")
+    slabs = property(lambda self: self.of_type(ShapeType.SLAB), doc="Active slabs.")
 
     def leaves(self, shape_id: str) -> list[Shape]:
         """The innermost parts of a shape (itself when it has no children of its type)."""

@@ -19,6 +19,7 @@ import typing
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
+from .elements.params import ElementsParams
 from .errors import InputError
 from .fileutil import atomic_write_text
 from .grammar.params import GenericParams, ManhattanParams
@@ -38,6 +39,7 @@ class Params:
     choice: ChoiceParams = field(default_factory=ChoiceParams)
     manhattan: ManhattanParams = field(default_factory=ManhattanParams)
     generic: GenericParams = field(default_factory=GenericParams)
+    elements: ElementsParams = field(default_factory=ElementsParams)
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)

@@ -19,6 +19,7 @@ from typing import Optional
 
 import numpy as np
 
+from .elements.build import building_elements
 from .errors import InputError, ReconstructionError, printable
 from .fileutil import atomic_write_text
 from .grammar.generic import generic_model
@@ -30,6 +31,7 @@ from .jobs import check_output_dir
 from .model import BuildingModel
 from .params import Params
 from .pipeline import choose_method, preprocess
+from .segmentation.cleaning import drop_nonfinite
 from .pointcloud import PointCloud
 from .progress import Progress
 from .segmentation.frame import check_degenerate, normalize_frame
@@ -92,6 +94,8 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
         raise ReconstructionError(
             f"no space found ({model.provenance.method} method): the scan shows no closed room "
             "(floor, ceiling and walls around it)", cloud.source or None)
+    p(0.97, "walls, slabs and openings")
+    model = building_elements(model, drop_nonfinite(cloud), params.elements)  # points beyond windows too
     prov = model.provenance
     seed = int(rng) if isinstance(rng, (int, np.integer)) else prov.seed
     return model.with_(provenance=prov.__class__(

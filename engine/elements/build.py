@@ -1,0 +1,317 @@
+"""The building-elements stage: a reconstruction's spaces → walls, slabs, exterior, openings.
+
+:func:`building_elements` works on any :class:`BuildingModel` with interior spaces (either
+method's result, a model after manual edits); with a scan it also finds the doors, doorless
+openings and windows in the walls (:mod:`.openings`). It is idempotent: elements it made
+before are replaced, and openings that came without a scan (inserted by hand, or found
+earlier) move to the new wall that holds them.
+
+The method's own walls and exteriors (thin cuboids, wall cells) stay in the model as
+inactive parts: the grammar and the sub-space view read them; the walls an architect sees
+are the runs.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from typing import Optional
+
+import numpy as np
+from shapely.geometry import Point, Polygon
+from shapely.ops import unary_union
+
+from ..model import BuildingModel, Polyhedron, Relation, Shape, ShapeType
+from .params import ElementsParams
+from .walls import WallRun, _polygons, space_footprint, wall_runs
+
+__all__ = ["ElementsParams", "building_elements", "ELEMENT_LOG"]
+
+log = logging.getLogger(__name__)
+
+ELEMENT_LOG = "elements"
+"""First word of the log entry of every shape this stage makes (so a re-run replaces them)."""
+
+
+def _made_here(s: Shape) -> bool:
+    return bool(s.log) and str(s.log[0]).startswith(ELEMENT_LOG)
+
+
+def _keyhole(poly: Polygon) -> np.ndarray:
+    """A polygon with holes as one ring through zero-width slits (for a prism)."""
+    ring = list(np.asarray(poly.exterior.coords)[:-1, :2])
+    for hole in poly.interiors:
+        h = np.asarray(hole.coords)[:-1, :2]
+        R = np.asarray(ring)
+        d = np.linalg.norm(R[:, None, :] - h[None, :, :], axis=2)
+        i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+        hh = list(np.roll(h, -j, axis=0))
+        ring = ring[:i + 1] + hh + [hh[0], ring[i]] + ring[i + 1:]
+    return np.asarray(ring)
+
+
+def _storey_spaces(model: BuildingModel) -> dict:
+    out = {}
+    for s in model.spaces:
+        if s.parent is not None and s.parent in model and model[s.parent].type == ShapeType.INTERIOR:
+            continue
+        out.setdefault(s.storey, []).append(s)
+    return out
+
+
+def _span_sides(run_shape: Shape, u: float):
+    for u0, u1, left, right in run_shape.attributes.get("side_spans", []):
+        if u0 - 1e-6 <= u <= u1 + 1e-6:
+            return left, right
+    return tuple(run_shape.attributes.get("sides", (None, None)))
+
+
+def _wall_shape(run: WallRun, k: int, z0: float, z1: float, exterior_id: str) -> Shape:
+    sides = [x if x is not None else exterior_id for x in run.sides()]
+    spans = [[float(u0), float(u1), lft if lft is not None else exterior_id, rgt if rgt is not None else exterior_id]
+             for u0, u1, lft, rgt in run.spans]
+    kind = "Exterior wall" if run.external else "Wall"
+    return Shape(f"wall_s{run.storey}_{k:03d}", ShapeType.WALL, Polyhedron.prism(run.footprint(), z0, z1),
+                 storey=run.storey, name=f"{kind} {run.storey}.{k + 1}", terminal=True,
+                 attributes={"thickness": float(run.thickness), "height": float(z1 - z0),
+                             "external": bool(run.external), "thickness_measured": bool(run.measured),
+                             "axis_line": [[float(v) for v in run.a], [float(v) for v in run.b]],
+                             "sides": sides, "side_spans": spans,
+                             "floor_z": float(z0), "ceiling_z": float(z1)},
+                 log=(f"{ELEMENT_LOG}: wall run {run.length:.2f} m, {run.thickness:.3f} m thick"
+                      f"{' (exterior)' if run.external else ''}",))
+
+
+def _slabs(storey_geo: dict, model: BuildingModel, prm: SlabParams) -> list[Shape]:
+    """Floor slab under and ceiling/roof slabs above each storey."""
+    st = {s.index: s for s in model.storeys}
+    order = sorted(storey_geo)
+    shapes = []
+    for pos, k in enumerate(order):
+        outline, rooms, _ = storey_geo[k]
+        floor = min(float(r.bounds[0, 2]) for r in rooms)
+        above = order[pos + 1] if pos + 1 < len(order) else None
+        below = order[pos - 1] if pos > 0 else None
+        # the floor slab: thickness from the gap to the storey below when it was scanned
+        t = prm.thickness
+        if below is not None:
+            ceil_below = max(float(r.bounds[1, 2]) for r in storey_geo[below][1])
+            gap = floor - ceil_below
+            if 0.02 < gap <= prm.max_gap:
+                t = gap
+        for poly in _polygons(outline):
+            ring = _keyhole(poly) if len(poly.interiors) else np.asarray(poly.exterior.coords)[:-1, :2]
+            sid = f"slab_s{k}_floor_{len(shapes):02d}"
+            shapes.append(Shape(sid, ShapeType.SLAB, Polyhedron.prism(ring, floor - t, floor), storey=k,
+                                name=f"Floor {st[k].name if k in st else k}", terminal=True,
+                                attributes={"kind": "base" if below is None else "floor", "thickness": float(t),
+                                            "thickness_measured": t != prm.thickness},
+                                log=(f"{ELEMENT_LOG}: floor slab {t:.3f} m",)))
+        if above is not None:
+            floor_above = min(float(r.bounds[0, 2]) for r in storey_geo[above][1])
+            ceil = max(float(r.bounds[1, 2]) for r in rooms)
+            if 0.02 < floor_above - ceil <= prm.max_gap:
+                continue  # the floor slab of the storey above closes this one
+        # ceilings: one slab per ceiling level (rooms of different heights)
+        levels = {}
+        for r in rooms:
+            top = float(r.bounds[1, 2])
+            key = next((lv for lv in levels if abs(lv - top) <= prm.level_tolerance), top)
+            levels.setdefault(key, []).append(r)
+        for lv, rs in sorted(levels.items()):
+            region = unary_union([storey_geo[k][2][r.id] for r in rs]).buffer(0)
+            # reach over the walls around those rooms (within the outline)
+            region = region.buffer(0.35, join_style="mitre").intersection(outline)
+            for poly in _polygons(region):
+                if poly.area < 0.05:
+                    continue
+                ring = _keyhole(poly) if len(poly.interiors) else np.asarray(poly.exterior.coords)[:-1, :2]
+                kind = "roof" if above is None else "ceiling"
+                sid = f"slab_s{k}_{kind}_{len(shapes):02d}"
+                shapes.append(Shape(sid, ShapeType.SLAB, Polyhedron.prism(ring, lv, lv + prm.thickness),
+                                    storey=k, name=f"{kind.capitalize()} {st[k].name if k in st else k}",
+                                    terminal=True, attributes={"kind": kind, "thickness": float(prm.thickness),
+                                                               "thickness_measured": False},
+                                    log=(f"{ELEMENT_LOG}: {kind} slab at {lv:.3f} m",)))
+    return shapes
+
+
+def _exterior_shape(k: int, outline, z0: float, z1: float, old: list[str]) -> Shape:
+    band = outline.buffer(1.0, join_style="mitre").difference(outline)
+    polys = sorted(_polygons(band), key=lambda p: -p.area)
+    ring = _keyhole(polys[0]) if polys else None
+    geo = Polyhedron.prism(ring, z0, z1) if ring is not None else Polyhedron.box((0, 0, z0), (1e-3, 1e-3, z1))
+    return Shape(f"exterior_s{k}", ShapeType.EXTERIOR, geo, storey=k, name=f"Exterior {k}", terminal=True,
+                 children=tuple(old), log=(f"{ELEMENT_LOG}: exterior of storey {k}",))
+
+
+def building_elements(model: BuildingModel, cloud=None, params: Optional[ElementsParams] = None) -> BuildingModel:
+    """Walls as runs, slabs, one exterior per storey and (with a scan) openings.
+
+    Parameters
+    ----------
+    model : BuildingModel with interior spaces (aligned frame).
+    cloud : PointCloud or None — the scan in the *input* frame (``model.transform`` maps the
+        model to it); None keeps the openings the model has.
+    params : ElementsParams
+
+    Returns the model with the element shapes and the room-level relations replaced.
+    """
+    prm = params or ElementsParams()
+    t0 = time.perf_counter()
+    keep, old_openings = [], []
+    for s in model.shapes:
+        if _made_here(s):
+            if s.type in (ShapeType.DOOR, ShapeType.WINDOW) and not s.attributes.get("detected", False):
+                old_openings.append(s)
+            continue
+        if s.type in (ShapeType.DOOR, ShapeType.WINDOW):
+            old_openings.append(s)
+            continue
+        keep.append(s)
+    base = model.with_(shapes=tuple(keep), relations=tuple(r for r in model.relations))
+    by_storey = _storey_spaces(base)
+    top_ids = {s.id for ss in by_storey.values() for s in ss}
+    new_shapes, relations, runs_all = [], [], []
+    storey_geo = {}
+    old_ext = {}
+    for s in base.shapes:
+        if s.type == ShapeType.EXTERIOR and s.active:
+            old_ext.setdefault(s.storey, []).append(s.id)
+    for k, spaces in sorted(by_storey.items()):
+        fps = {}
+        for s in spaces:
+            g = space_footprint(base, s)
+            if g is not None and not g.is_empty:
+                fps[s.id] = g
+        if not fps:
+            continue
+        runs, open_pairs = wall_runs(fps, k, prm.walls)
+        z0 = min(float(s.bounds[0, 2]) for s in spaces)
+        z1 = max(float(s.bounds[1, 2]) for s in spaces)
+        ext_id = f"exterior_s{k}"
+        walls = []
+        for i, r in enumerate(runs):
+            side_ids = [x for sp in r.spans for x in sp[2:] if x is not None]
+            lo = min((float(base[x].bounds[0, 2]) for x in side_ids), default=z0)
+            hi = max((float(base[x].bounds[1, 2]) for x in side_ids), default=z1)
+            walls.append(_wall_shape(r, i, lo, hi, ext_id))
+        id_of = {i: w.id for i, w in enumerate(walls)}
+        for i, (r, w) in enumerate(zip(runs, walls)):
+            joins = [{"wall": id_of[j], "at": at, "other_at": other} for j, at, other in r.joins]
+            w.attributes["joins"] = joins
+        outline = unary_union(list(fps.values()) + [Polygon(w.footprint()) for w in walls if w.footprint() is not None])
+        outline = outline.buffer(0.02, join_style="mitre").buffer(-0.02, join_style="mitre")
+        storey_geo[k] = (outline, spaces, fps)
+        ext = _exterior_shape(k, outline, z0, z1, old_ext.get(k, []))
+        new_shapes.extend(walls)
+        new_shapes.append(ext)
+        runs_all.extend(zip(runs, walls))
+        seen = set()
+        for w in walls:
+            for _, _, a, b in w.attributes["side_spans"]:
+                key = (min(a, b), max(a, b), w.id)
+                if a != b and key not in seen:
+                    seen.add(key)
+                    relations.append(Relation("adjacency", key[0], key[1], w.id))
+        for a, b in sorted(open_pairs):
+            relations.append(Relation("adjacency", a, b))
+    new_shapes.extend(_slabs(storey_geo, base, prm.slabs))
+    # the method's walls and exteriors become parts
+    ext_parent = {sid: f"exterior_s{k}" for k, ids in old_ext.items() for sid in ids if k in storey_geo}
+    shapes = []
+    for s in base.shapes:
+        if s.type == ShapeType.WALL and s.active:
+            s = s.with_(active=False)
+        elif s.id in ext_parent:
+            s = s.with_(active=False, parent=ext_parent[s.id])
+        shapes.append(s)
+    out = base.with_(shapes=tuple(shapes) + tuple(new_shapes))
+    # openings
+    walls = [w for _, w in runs_all]
+    openings = []
+    if cloud is not None and prm.detect_openings and walls and _has_detector():
+        openings = _detect(out, walls, cloud, prm)
+    openings += _rehome(old_openings, walls)
+    openings = [_with_spaces(o, out) for o in openings]
+    kids = {}
+    for o in openings:
+        kids.setdefault(o.parent, []).append(o.id)
+    out = out.replace_shapes(*[out[w].with_(children=tuple(kids.get(w, ()))) for w in kids if w in out])
+    out = out.with_(shapes=out.shapes + tuple(openings))
+    for o in openings:
+        a, b = o.attributes.get("spaces", [None, None])[:2]
+        if a is not None and b is not None and a != b:
+            relations.append(Relation("connectivity", min(a, b), max(a, b), o.id)
+                             if o.type == ShapeType.DOOR else Relation("adjacency", min(a, b), max(a, b), o.id))
+    # room-level relations are the elements' now; part-level ones stay
+    room_level = top_ids | {f"exterior_s{k}" for k in storey_geo} | set(ext_parent)
+    kept = [r for r in model.relations if not (r.a in room_level and r.b in room_level)]
+    relations = [r for r in relations if not (r.kind == "adjacency" and r.via in {o.id for o in openings})]
+    out = out.with_(relations=tuple(kept + relations))
+    prov = out.provenance
+    timings = {**prov.timings, "elements": time.perf_counter() - t0}
+    trace = {**prov.trace, "elements": {"walls": len(walls), "external": sum(bool(w.attributes["external"])
+                                                                             for w in walls),
+                                        "openings": len(openings)}}
+    return out.with_(provenance=prov.__class__(prov.method, prov.parameters, prov.seed, timings, trace,
+                                               prov.source, prov.software))
+
+
+def _has_detector() -> bool:  # TODO(lead): remove once engine/elements/openings.py lands
+    import importlib.util
+    return importlib.util.find_spec("engine.elements.openings") is not None
+
+
+def _detect(model: BuildingModel, walls: list[Shape], cloud, prm: ElementsParams) -> list[Shape]:
+    from .openings import detect_openings
+
+    T = np.linalg.inv(model.transform)
+    xyz = cloud.xyz @ T[:3, :3].T + T[:3, 3]
+    normals = None if cloud.normals is None else cloud.normals @ T[:3, :3].T
+    sp = cloud.scanner_positions
+    if sp is not None:
+        sp = sp @ T[:3, :3].T + T[:3, 3]
+    ext = {s.storey: s.id for s in model.of_type(ShapeType.EXTERIOR) if _made_here(s)}
+    found = detect_openings(walls, model.storeys, xyz, normals, cloud.scan_index, sp, exterior_ids=ext)
+    out = []
+    for o in found:
+        o = o.with_(attributes={**o.attributes, "detected": True})
+        if not _made_here(o):
+            o = o.with_(log=(f"{ELEMENT_LOG}: {o.attributes.get('kind', o.type.value)} found in {o.parent}",)
+                        + tuple(o.log))
+        out.append(o)
+    return out
+
+
+def _rehome(openings: list[Shape], walls: list[Shape]) -> list[Shape]:
+    """Openings kept from before, each in the new wall that holds its centre."""
+    out = []
+    for o in openings:
+        c = o.centroid
+        best = None
+        for w in walls:
+            if w.storey != o.storey:
+                continue
+            d = Polygon(w.footprint()).distance(Point(c[:2])) if w.footprint() is not None else np.inf
+            if best is None or d < best[0]:
+                best = (d, w)
+        if best is not None and best[0] <= 0.3:
+            out.append(o.with_(parent=best[1].id))
+        else:
+            log.warning("opening %s lies in no wall any more; dropped", o.id)
+    return out
+
+
+def _with_spaces(o: Shape, model: BuildingModel) -> Shape:
+    """The opening's two spaces from its wall's sides at its centre."""
+    if o.parent is None or o.parent not in model:
+        return o
+    w = model[o.parent]
+    ax = w.attributes.get("axis_line")
+    if ax is None:
+        return o
+    a, b = np.asarray(ax[0], float), np.asarray(ax[1], float)
+    d = (b - a) / max(float(np.linalg.norm(b - a)), 1e-12)
+    u = float(d @ (o.centroid[:2] - a))
+    left, right = _span_sides(w, u)
+    return o.with_(attributes={**o.attributes, "spaces": [left, right]})

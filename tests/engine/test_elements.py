@@ -1,0 +1,119 @@
+"""Wall runs, slabs and the exterior from spaces (engine.elements.build)."""
+import math
+
+import numpy as np
+import pytest
+from shapely.geometry import Polygon
+from shapely.ops import unary_union
+
+from engine.elements.build import building_elements
+from engine.elements.params import ElementsParams, WallRunParams
+from engine.model import BuildingModel, Polyhedron, Shape, ShapeType, Storey
+
+NO_SCAN = ElementsParams(detect_openings=False)
+
+
+def _rot(xy, angle):
+    c, s = math.cos(angle), math.sin(angle)
+    return np.asarray(xy, float) @ np.array([[c, s], [-s, c]])
+
+
+def _model(rooms, angle=0.0, height=2.8):
+    shapes = [Shape(f"room{k}", ShapeType.INTERIOR, Polyhedron.prism(_rot(fp, angle), 0.0, height), name=f"Room {k}",
+                    terminal=True) for k, fp in enumerate(rooms)]
+    return BuildingModel(shapes=tuple(shapes), storeys=(Storey(0, 0.0, height, "Ground"),))
+
+
+def _rect(x0, y0, x1, y1):
+    return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+
+
+def _walls(m):
+    return sorted(m.walls, key=lambda w: w.id)
+
+
+@pytest.mark.parametrize("angle", [0.0, math.radians(30.0)])
+def test_two_rooms_give_one_partition_and_four_exterior_runs(angle):
+    m = building_elements(_model([_rect(0, 0, 4, 4), _rect(4.15, 0, 8.15, 4)], angle), params=NO_SCAN)
+    inner = [w for w in m.walls if not w.attributes["external"]]
+    outer = [w for w in m.walls if w.attributes["external"]]
+    assert len(inner) == 1 and len(outer) == 4
+    assert inner[0].attributes["thickness"] == pytest.approx(0.15, abs=0.005)
+    assert sorted(inner[0].attributes["sides"]) == ["room0", "room1"]
+    for w in outer:
+        assert w.attributes["thickness"] == pytest.approx(0.3, abs=1e-6)
+        assert "exterior_s0" in w.attributes["sides"]
+    # the exterior walls close the building: the 0.3 m band around the rooms is covered
+    rooms = unary_union([Polygon(_rot(_rect(0, 0, 8.15, 4), angle))])
+    band = rooms.buffer(0.3, join_style="mitre").difference(rooms)
+    cover = unary_union([Polygon(w.footprint()) for w in outer])
+    assert band.difference(cover).area < 0.01 * band.area  # corners closed (butt joints)
+    # no two walls overlap (butt joints, not overlaps), within 1 cm² of rounding
+    polys = [Polygon(w.footprint()) for w in m.walls]
+    overlap = sum(a.intersection(b).area for i, a in enumerate(polys) for b in polys[i + 1:])
+    assert overlap < 1e-4
+    joins = [(j["at"], j["other_at"]) for w in m.walls for j in w.attributes["joins"]]
+    assert sum(1 for j in joins if "ATPATH" in j) == 2  # the partition meets both long walls
+    assert sum(1 for j in joins if "ATPATH" not in j) == 4  # four corners
+    assert len(m.of_type(ShapeType.EXTERIOR)) == 1
+    kinds = sorted(s.attributes["kind"] for s in m.slabs)
+    assert kinds == ["base", "roof"]
+    rel = {(r.a, r.b, r.via) for r in m.relations if r.kind == "adjacency"}
+    assert ("room0", "room1", inner[0].id) in rel
+    assert {r.a for r in m.relations if r.b == "exterior_s0"} | {r.b for r in m.relations if r.a == "exterior_s0"} \
+        >= {"room0", "room1"}
+
+
+def test_rooms_that_touch_meet_without_a_wall():
+    m = building_elements(_model([_rect(0, 0, 4, 4), _rect(4.0, 0, 8, 4)]), params=NO_SCAN)
+    assert all(w.attributes["external"] for w in m.walls)
+    assert ("room0", "room1", None) in {(r.a, r.b, r.via) for r in m.relations}
+
+
+def test_a_party_wall_is_one_thick_wall():
+    m = building_elements(_model([_rect(0, 0, 5, 6), _rect(5.6, 0, 10.6, 6)]), params=NO_SCAN)
+    inner = [w for w in m.walls if not w.attributes["external"]]
+    assert len(inner) == 1 and inner[0].attributes["thickness"] == pytest.approx(0.6, abs=0.005)
+    # a gap wider than max_thickness is no wall between the rooms
+    m2 = building_elements(_model([_rect(0, 0, 5, 6), _rect(5.6, 0, 10.6, 6)]),
+                           params=ElementsParams(walls=WallRunParams(max_thickness=0.5), detect_openings=False))
+    assert all(w.attributes["external"] for w in m2.walls)
+
+
+def test_l_shaped_building_is_closed_at_the_concave_corner():
+    rooms = [_rect(0, 0, 6, 4), _rect(0, 4.15, 3, 8)]
+    m = building_elements(_model(rooms), params=NO_SCAN)
+    outer = [w for w in m.walls if w.attributes["external"]]
+    fp = unary_union([Polygon(r) for r in rooms] + [Polygon(w.footprint()) for w in m.walls if not w.attributes["external"]])
+    band = fp.buffer(0.3, join_style="mitre").difference(fp)
+    cover = unary_union([Polygon(w.footprint()) for w in outer])
+    assert band.difference(cover).area < 0.02 * band.area
+    assert len(outer) == 6  # an L has six sides
+
+
+def test_rerun_is_idempotent_and_keeps_openings():
+    m = building_elements(_model([_rect(0, 0, 4, 4), _rect(4.15, 0, 8.15, 4)]), params=NO_SCAN)
+    wall = next(w for w in m.walls if not w.attributes["external"])
+    door = Shape("door_1", ShapeType.DOOR, Polyhedron.box((4.0, 1.5, 0.0), (4.15, 2.4, 2.1)), parent=wall.id,
+                 terminal=True, attributes={"width": 0.9, "height": 2.1, "sill": 0.0, "kind": "door"})
+    m = m.with_(shapes=m.shapes + (door,))
+    again = building_elements(m, params=NO_SCAN)
+    assert len(again.walls) == len(m.walls)
+    assert len(again.slabs) == len(m.slabs) and len(again.of_type(ShapeType.EXTERIOR)) == 1
+    d = again["door_1"]
+    assert d.parent in {w.id for w in again.walls}
+    assert sorted(d.attributes["spaces"]) == ["room0", "room1"]
+    assert ("room0", "room1", "door_1") in {(r.a, r.b, r.via) for r in again.relations if r.kind == "connectivity"}
+
+
+def test_two_storeys_share_the_slab_between_them():
+    s0 = Shape("a", ShapeType.INTERIOR, Polyhedron.prism(_rect(0, 0, 5, 5), 0.0, 2.7), storey=0, terminal=True)
+    s1 = Shape("b", ShapeType.INTERIOR, Polyhedron.prism(_rect(0, 0, 5, 5), 3.0, 5.7), storey=1, terminal=True)
+    m = BuildingModel(shapes=(s0, s1), storeys=(Storey(0, 0.0, 2.7), Storey(1, 3.0, 5.7)))
+    e = building_elements(m, params=NO_SCAN)
+    slabs = sorted(e.slabs, key=lambda s: s.bounds[0, 2])
+    assert [s.attributes["kind"] for s in slabs] == ["base", "floor", "roof"]
+    mid = slabs[1]
+    assert mid.attributes["thickness"] == pytest.approx(0.3, abs=1e-6) and mid.attributes["thickness_measured"]
+    assert mid.bounds[0, 2] == pytest.approx(2.7) and mid.bounds[1, 2] == pytest.approx(3.0)
+    assert len(e.of_type(ShapeType.EXTERIOR)) == 2
