@@ -3,6 +3,10 @@
 Scan files → :class:`PointCloud` → reconstruction → :class:`BuildingModel` → IFC,
 evaluation, change detection, reports. See README.md for the command line.
 """
+from .threads import apply_thread_env
+
+apply_thread_env()  # before NumPy and Open3D start their thread pools
+
 from .errors import (Cancelled, EmptyCloudError, FormatError, IndoorError, InputError,
                      MissingDependencyError, ReconstructionError)
 from .model import (BuildingModel, Polyhedron, Provenance, Relation, Scope, Shape, ShapeType,

@@ -28,6 +28,7 @@ from .segmentation.cleaning import building_points, clean, drop_nonfinite, estim
 from .segmentation.params import PreprocessParams
 from .segmentation.planes import extract_planes
 from .segmentation.storeys import detect_storeys
+from .threads import thread_cap
 
 __all__ = ["ChoiceParams", "Prepared", "preprocess", "align", "full_cloud_normals", "manhattan_score", "choose_method",
            "normal_tilt_spread"]
@@ -99,7 +100,7 @@ class Prepared:
             return np.arange(len(self.cloud), dtype=np.int64)
         from scipy.spatial import cKDTree
 
-        _, nn = cKDTree(self.working.xyz).query(self.cloud.xyz, k=1, workers=-1)
+        _, nn = cKDTree(self.working.xyz).query(self.cloud.xyz, k=1, workers=thread_cap())
         return nn.astype(np.int64)
 
     def to_full(self, values: np.ndarray) -> np.ndarray:

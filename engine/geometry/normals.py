@@ -11,11 +11,13 @@ from typing import Optional
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..threads import thread_cap
+
 __all__ = ["knn_pca", "knn_normals"]
 
 
 def knn_pca(xyz: np.ndarray, k: int, query: Optional[np.ndarray] = None, *,
-            workers: int = -1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            workers: Optional[int] = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """PCA of the ``k`` nearest neighbours (the point itself included) of query points.
 
     Parameters
@@ -24,7 +26,7 @@ def knn_pca(xyz: np.ndarray, k: int, query: Optional[np.ndarray] = None, *,
         coordinates first: the scatter matrices keep their digits).
     k : neighbours per query point, clipped to n.
     query : (m,) int indices into ``xyz`` of the query points; None: every point.
-    workers : threads of the k-d tree query (-1: all).
+    workers : threads of the k-d tree query (None: :func:`engine.threads.thread_cap`).
 
     Returns
     -------
@@ -36,7 +38,7 @@ def knn_pca(xyz: np.ndarray, k: int, query: Optional[np.ndarray] = None, *,
     xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
     q = xyz if query is None else xyz[np.asarray(query)]
     k = int(min(k, len(xyz)))
-    d, nb = cKDTree(xyz).query(q, k=k, workers=workers)
+    d, nb = cKDTree(xyz).query(q, k=k, workers=thread_cap() if workers is None else workers)
     d = np.asarray(d, dtype=np.float64).reshape(len(q), k)
     nb = np.asarray(nb).reshape(len(q), k)
     p = xyz[nb]
@@ -46,7 +48,7 @@ def knn_pca(xyz: np.ndarray, k: int, query: Optional[np.ndarray] = None, *,
 
 
 def knn_normals(xyz: np.ndarray, k: int, query: Optional[np.ndarray] = None, *,
-                workers: int = -1) -> np.ndarray:
+                workers: Optional[int] = None) -> np.ndarray:
     """(m, 3) float64 unit PCA normals (sign arbitrary) of the query points over their ``k``
     nearest neighbours in ``xyz`` (see :func:`knn_pca`)."""
     return knn_pca(xyz, k, query, workers=workers)[2][:, :, 0]

@@ -16,6 +16,7 @@ from ..geometry.normals import knn_normals
 from ..pointcloud import PointCloud
 from ..progress import Progress
 from .params import CleanParams, NormalParams
+from ..threads import thread_cap
 
 __all__ = ["drop_nonfinite", "building_points", "voxel_downsample", "remove_statistical_outliers",
            "estimate_normals", "clean"]
@@ -146,7 +147,7 @@ def remove_statistical_outliers(cloud: PointCloud, neighbors: int, std_ratio: fl
     n = len(cloud)
     if n <= neighbors + 1:
         return cloud, np.ones(n, bool)
-    d, _ = cKDTree(cloud.xyz).query(cloud.xyz, k=neighbors + 1, workers=-1)
+    d, _ = cKDTree(cloud.xyz).query(cloud.xyz, k=neighbors + 1, workers=thread_cap())
     md = d[:, 1:].mean(axis=1)
     keep = md <= md.mean() + std_ratio * md.std()
     return (cloud if keep.all() else cloud.subset(keep)), keep
