@@ -117,13 +117,32 @@ def _space_facts(model: BuildingModel, s) -> dict:
     }
 
 
+def _r(v, nd=3):
+    return None if v is None else round(float(v), nd)
+
+
+def _opening_facts(o) -> dict:
+    a = o.attributes
+    c = o.centroid
+    return {"id": o.id, "name": o.name, "kind": a.get("kind", o.type.value), "storey": o.storey,
+            "wall": o.parent, "spaces": list(a.get("spaces", [])),
+            "width_m": _r(a.get("width")), "height_m": _r(a.get("height")), "sill_m": _r(a.get("sill")),
+            "open": a.get("open"), "confidence": _r(a.get("confidence")),
+            "centre": [round(float(v), 3) for v in c], "support": dict(o.support)}
+
+
 def model_report(model: BuildingModel) -> dict:
-    """JSON-ready facts about a model: counts, spaces, walls, doors, topology, provenance."""
+    """JSON-ready facts about a model: counts, spaces, walls, openings, slabs, topology,
+    provenance."""
     spaces = [_space_facts(model, s) for s in model.spaces]
-    walls = [{"id": w.id, "name": w.name, "storey": w.storey,
-              "thickness_m": w.attributes.get("thickness"), "support": dict(w.support)} for w in model.walls]
-    doors = [{"id": d.id, "wall": d.parent, **{k: d.attributes.get(k) for k in ("width", "height")}}
-             for d in model.doors]
+    walls = [{"id": w.id, "name": w.name, "storey": w.storey, "external": w.attributes.get("external"),
+              "thickness_m": _r(w.attributes.get("thickness")), "length_m": _r(_axis_length(w)),
+              "thickness_measured": w.attributes.get("thickness_measured"),
+              "sides": w.attributes.get("sides"), "openings": list(w.children), "support": dict(w.support)}
+             for w in model.walls]
+    slabs = [{"id": s.id, "name": s.name, "storey": s.storey, "kind": s.attributes.get("kind"),
+              "thickness_m": _r(s.attributes.get("thickness")),
+              "area_m2": _r(s.geometry.plan_area_perimeter()[0])} for s in model.slabs]
     edges = {kind: [[r.a, r.b, r.via] for r in model.relations_of(kind)]
              for kind in ("adjacency", "connectivity")}
     return {
@@ -131,10 +150,19 @@ def model_report(model: BuildingModel) -> dict:
         "storeys": [s.to_dict() for s in model.storeys],
         "spaces": spaces,
         "walls": walls,
-        "doors": doors,
+        "doors": [_opening_facts(d) for d in model.doors],
+        "windows": [_opening_facts(w) for w in model.windows],
+        "slabs": slabs,
         "topology": edges,
         "provenance": model.provenance.to_dict(),
     }
+
+
+def _axis_length(w) -> Optional[float]:
+    ax = w.attributes.get("axis_line")
+    if ax is None:
+        return float(np.sort(w.scope.size[:2])[1])
+    return float(np.linalg.norm(np.subtract(ax[1], ax[0])))
 
 
 @dataclass(frozen=True)

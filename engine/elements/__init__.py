@@ -1,4 +1,4 @@
-"""Building elements from a reconstruction's spaces and the scan (docs/method.md §6).
+"""Building elements from a reconstruction's spaces and the scan (docs/method.md §7).
 
 Both methods end with interior spaces; this stage turns them into what a BIM tool expects:
 wall runs with a thickness (interior between two rooms, exterior around the building), joined

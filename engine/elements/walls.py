@@ -1,4 +1,4 @@
-"""Wall runs from the spaces' footprints (docs/method.md §6.1).
+"""Wall runs from the spaces' footprints (docs/method.md §7.1).
 
 The spaces of a storey are footprints in plan; a wall is what lies between them. Per storey:
 
