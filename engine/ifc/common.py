@@ -14,7 +14,8 @@ from ..jsonfields import jsonable
 __all__ = [
     "PSET_PROVENANCE", "PSET_SHAPE", "PSET_SUPPORT", "PSET_STOREY", "WRITABLE_SCHEMAS",
     "READABLE_SCHEMAS", "require_ifcopenshell", "dumps", "loads", "safe_text", "global_id",
-    "source_date_epoch", "GLOBAL_ID_NAMESPACE",
+    "source_date_epoch", "GLOBAL_ID_NAMESPACE", "CONNECTION_TYPES", "SLAB_MATERIALS", "millimetres",
+    "connection_type",
 ]
 
 log = logging.getLogger(__name__)
@@ -30,6 +31,11 @@ PSET_STOREY = "Indoor_Storey"
 
 WRITABLE_SCHEMAS = ("IFC4", "IFC4X3")
 READABLE_SCHEMAS = ("IFC2X3", "IFC4", "IFC4X3")
+
+CONNECTION_TYPES = ("ATSTART", "ATEND", "ATPATH", "NOTDEFINED")
+"""IfcConnectionTypeEnum: where a wall join sits on each wall's path (the model's "joins")."""
+SLAB_MATERIALS = {"FLOOR": "Floor slab", "ROOF": "Roof slab", "BASESLAB": "Base slab"}
+"""Material (and type) name of a slab's single layer by its PredefinedType."""
 
 GLOBAL_ID_NAMESPACE = uuid.UUID("5f0c3b1e-8d2a-5e47-9a1c-6b7d2e4f8a90")
 """UUID namespace of the GlobalIds :func:`global_id` derives (fixed: changing it changes every id)."""
@@ -113,3 +119,16 @@ def iso_timestamp(epoch: Optional[int]) -> str:
     if epoch is None:
         return datetime.datetime.now().astimezone().replace(microsecond=0).isoformat()
     return datetime.datetime.fromtimestamp(epoch, datetime.timezone.utc).isoformat()
+
+
+def millimetres(length: float, step: float = 0.001) -> int:
+    """``length`` (m) rounded to ``step`` (m), in whole millimetres: the size of element types
+    (walls of one thickness, doors and windows of one width × height share a type)."""
+    step = max(float(step), 1e-6)
+    return int(round(round(float(length) / step) * step * 1000.0))
+
+
+def connection_type(value) -> str:
+    """A join end ("ATSTART", "ATEND", "ATPATH") as IfcConnectionTypeEnum; NOTDEFINED otherwise."""
+    v = str(value or "").strip().upper()
+    return v if v in CONNECTION_TYPES else "NOTDEFINED"

@@ -1,20 +1,29 @@
-"""BuildingModel → IFC4 (or IFC4X3), written with ``ifcopenshell.api``.
+"""BuildingModel → IFC4 (or IFC4X3), written with ``ifcopenshell.api`` and in bulk.
 
 The file follows the "simple model from scratch" recipe of IfcOpenShell: project, SI units,
 representation contexts (Model/Body, Model/Axis, Model/FootPrint), then the spatial tree
-site → building → storeys → spaces, then the elements:
+site → building → storeys → spaces, then the elements an architect's tool (Bonsai, Revit)
+edits:
 
 * ``IfcSpace`` per interior space (with ``IfcWriteParams.parts``, a merged space also
-  aggregates its parts as ``PARTIAL`` sub-spaces); ``IfcExternalSpatialElement`` per exterior
-  space;
-* ``IfcWall`` / ``IfcSlab`` (an ``IfcExtrudedAreaSolid`` when the shape is a vertical
-  prism, an ``IfcFacetedBrep`` otherwise), ``IfcDoor`` filling an ``IfcOpeningElement``
-  that voids its wall;
-* ``IfcRelSpaceBoundary2ndLevel`` for every adjacency (space–wall–space) and connectivity
-  (space–door–space) relation of the model, the two sides pointing at each other through
-  ``CorrespondingBoundary``; relations without a wall or door go through an
-  ``IfcVirtualElement`` (``VIRTUAL`` boundaries); walls and slabs that touch a space without
-  a relation get a one-sided boundary. Connection geometry is the common face region.
+  aggregates its parts as ``PARTIAL`` sub-spaces); one ``IfcExternalSpatialElement`` per
+  storey holding all of its exterior shapes (one body item each);
+* ``IfcWall`` (``SOLIDWALL``) placed on its axis (local x along the attribute ``axis_line``
+  or the scope's long side), with an Axis and a Body, ``Pset_WallCommon.IsExternal`` and one
+  material layer (``IfcMaterialLayerSetUsage`` AXIS2, POSITIVE, offset −thickness/2: the
+  layer is centred on the axis) from an ``IfcWallType`` per material and thickness;
+  ``IfcRelConnectsPathElements`` for the wall joins (attribute ``joins``, each pair once);
+* ``IfcSlab`` (FLOOR / ROOF / BASESLAB from the attribute ``kind``), ``Pset_SlabCommon``,
+  one layer (AXIS3 from its bottom) from an ``IfcSlabType``;
+* ``IfcDoor`` / ``IfcWindow`` filling an ``IfcOpeningElement`` that voids its wall, with an
+  ``IfcDoorType`` / ``IfcWindowType`` per width × height; a doorless opening (a door of
+  ``kind`` "opening") is the ``IfcOpeningElement`` alone: the hole without a filling;
+* ``IfcRelSpaceBoundary2ndLevel`` pairs (``CorrespondingBoundary``) for the adjacency and
+  connectivity relations and the windows between two spaces, with the wall's boundary as the
+  ``ParentBoundary`` of a door's or window's (PHYSICAL) or a doorless opening's (VIRTUAL, on
+  the ``IfcOpeningElement``); ``IfcVirtualElement`` for open plans between interior spaces;
+  one-sided boundaries for walls and slabs touching a space (see
+  :class:`engine.ifc.writer_geometry.BoundaryWriter`);
 * base quantities (``Qto_*BaseQuantities``), the property sets ``Indoor_Provenance``
   (project), ``Indoor_Shape`` and ``Indoor_Support`` (products), ``Indoor_Storey``;
 * colours by type (surface styles).
@@ -22,17 +31,18 @@ site → building → storeys → spaces, then the elements:
 Geometry is written in the model's original frame: the site placement carries
 ``model.offset`` and the rigid ``model.transform`` (a non-rigid transform is applied to the
 vertices instead), so world coordinates in the file are ``p_file = T p_model + offset``.
-Every placement below the site is a pure translation.
+Placements below the site are translations, turned about z for walls and what sits in them
+(openings, doors, windows: local x along the wall).
 
 The output is reproducible: every GlobalId is derived from the model's seed, its name and
 the entity's identity (:func:`engine.ifc.common.global_id`: a shape id, a role such as
-``"opening"`` or ``"pset"``, the ids a relationship joins), the relationships are created
-here in a fixed order (``ifcopenshell.api`` orders products through Python sets of entity
-instances, whose hashes depend on everything the process made before), and the
-``SOURCE_DATE_EPOCH`` environment variable fixes the time stamps. The same model therefore
-gives the same file byte for byte, apart from the header time stamp when that variable is
-not set. Text from the model (names, file names) with undecodable bytes is written with
-backslash escapes.
+``"opening"`` or ``"pset"``, the ids a relationship joins, a type's size), the relationships
+are created here in a fixed order and in bulk (``ifcopenshell.api`` orders products through
+Python sets of entity instances, whose hashes depend on everything the process made before),
+and the ``SOURCE_DATE_EPOCH`` environment variable fixes the time stamps. The same model
+therefore gives the same file byte for byte, apart from the header time stamp when that
+variable is not set. Text from the model (names, file names) with undecodable bytes is
+written with backslash escapes.
 """
 from __future__ import annotations
 
@@ -49,10 +59,11 @@ from ..fileutil import atomic_path
 from ..geometry.transforms import apply_transform, is_rigid
 from ..model import BuildingModel, Polyhedron, Shape, ShapeType
 from ..progress import Progress
-from .common import (PSET_PROVENANCE, PSET_SHAPE, PSET_STOREY, PSET_SUPPORT, WRITABLE_SCHEMAS, dumps,
-                     global_id, iso_timestamp, require_ifcopenshell, safe_text, source_date_epoch)
-from .writer_geometry import (clean_ring, common_face, default_storeys, door_size, opening_geometry,
-                              wall_axis)
+from .common import (PSET_PROVENANCE, PSET_SHAPE, PSET_STOREY, PSET_SUPPORT, SLAB_MATERIALS, WRITABLE_SCHEMAS,
+                     connection_type, dumps, global_id, iso_timestamp, millimetres, require_ifcopenshell,
+                     safe_text, source_date_epoch)
+from .writer_geometry import (BoundaryWriter, axis2, axis_line, clean_ring, default_storeys, door_size,
+                              opening_geometry, polyline, slab_type, solid, union_rings, wall_frame)
 
 __all__ = ["IfcWriteParams", "write_ifc", "build_ifc", "TYPE_COLOURS"]
 
@@ -64,19 +75,19 @@ TYPE_COLOURS = {
     ShapeType.WALL: ((0.85, 0.83, 0.78), 0.0),
     ShapeType.SLAB: ((0.62, 0.62, 0.65), 0.0),
     ShapeType.DOOR: ((0.65, 0.42, 0.22), 0.0),
+    ShapeType.WINDOW: ((0.62, 0.82, 0.95), 0.6),
 }
 """Surface colour (red, green, blue in 0..1) and transparency (0 opaque .. 1 clear) per type."""
 
-
-
+_I3 = np.eye(3)
 
 @dataclass(frozen=True)
 class IfcWriteParams:
     """Parameters of :func:`write_ifc` (SI units)."""
 
     opening_margin: float = 0.01
-    """How far (m) a door's opening reaches beyond each face of its wall, so the void cuts
-    cleanly through coplanar faces."""
+    """How far (m) a door's or window's opening reaches beyond each face of its wall, so the
+    void cuts cleanly through coplanar faces."""
     boundary_gap: float = 0.05
     """Largest distance (m) between a space face and an element face that still bound each
     other (the faces must also be anti-parallel)."""
@@ -99,6 +110,9 @@ class IfcWriteParams:
     crs_name: str = "LOCAL"
     """Name of the ``IfcProjectedCRS`` target of the map conversion (e.g. "EPSG:25832");
     the offset's coordinate system is not known to the engine."""
+    type_step: float = 0.001
+    """Sizes (m) of element types are rounded to this: walls and slabs of one rounded
+    thickness share a type and its layer set, doors and windows of one width × height a type."""
 
 
 # --------------------------------------------------------------------------- public API
@@ -174,7 +188,7 @@ def build_ifc(model: BuildingModel, *, schema: str = "IFC4", params: Optional[If
 
 
 # --------------------------------------------------------------------------- writer
-class _Writer:
+class _Writer(BoundaryWriter):
     def __init__(self, model: BuildingModel, schema: str, params: IfcWriteParams, p):
         import ifcopenshell
         import ifcopenshell.api.aggregate  # noqa: F401  (sub-modules load on import)
@@ -207,6 +221,14 @@ class _Writer:
         self.owners = {}  # GlobalId key -> ifc entity id
         self.seed = model.provenance.seed
         self.epoch = source_date_epoch()
+        self.bake = None  # non-rigid model transform applied to the vertices, else None
+        self.rot = {}  # ifc entity id -> (3, 3) absolute rotation of its placement (identity if absent)
+        self.canon = {}  # exterior shape id -> shape id of the IfcExternalSpatialElement holding it
+        self.types = {}  # type key -> {"type", "objects", "set", "usages"} (see _typed)
+        self.materials = {}  # material name -> IfcMaterial
+        self.faces = {}  # boundary entity id -> (boundary, common face, space entity)
+        self.holes = {}  # boundary entity id -> [(k, 3) faces of the doors and windows in it]
+        self.wall_b = {}  # (space id, wall id[, partner id]) -> that wall's boundary of the space
 
     # ------------------------------------------------------------------ identity
     def _own(self, entity, key: tuple):
@@ -247,17 +269,13 @@ class _Writer:
 
     def _aggregate(self, relating, products):
         """IfcRelAggregates of ``products`` (in this order) under ``relating``."""
-        key = (self._key(relating), "aggregates")
-        rel = self.f.createIfcRelAggregates(self._gid(key), self._history(), None, None, relating,
-                                            list(products))
-        return self._own(rel, key)
+        return self._rel("IfcRelAggregates", (self._key(relating), "aggregates"), RelatingObject=relating,
+                         RelatedObjects=list(products))
 
     def _contain(self, structure, products):
         """IfcRelContainedInSpatialStructure of ``products`` (in this order) in ``structure``."""
-        key = (self._key(structure), "contains")
-        rel = self.f.createIfcRelContainedInSpatialStructure(self._gid(key), self._history(), None, None,
-                                                             list(products), structure)
-        return self._own(rel, key)
+        return self._rel("IfcRelContainedInSpatialStructure", (self._key(structure), "contains"),
+                         RelatedElements=list(products), RelatingStructure=structure)
 
     def _finish(self):
         """Check that every IfcRoot has its GlobalId; fix the time stamps."""
@@ -289,6 +307,7 @@ class _Writer:
             log.warning("model transform is not rigid: applying it to the vertices")
             site = np.eye(4)
             bake = t
+        self.bake = bake
         if in_site:
             site[:3, 3] += m.offset
         self.site_matrix = site
@@ -303,26 +322,24 @@ class _Writer:
             self.storey_z.append(z)
 
     # ------------------------------------------------------------------ helpers
-    def _point(self, xyz):
-        return self.f.createIfcCartesianPoint([float(c) for c in xyz])
-
-    def _axis2(self, location, z=None, x=None):
-        f = self.f
-        return f.createIfcAxis2Placement3D(
-            self._point(location),
-            None if z is None else f.createIfcDirection([float(c) for c in z]),
-            None if x is None else f.createIfcDirection([float(c) for c in x]))
-
-    def _placement(self, entity, parent, origin):
-        """Local placement of ``entity`` at absolute model-frame ``origin`` relative to ``parent``."""
+    def _placement(self, entity, parent, origin, rot=None):
+        """Local placement of ``entity`` at absolute model-frame ``origin`` turned by ``rot``
+        (3, 3) (None: not turned), relative to ``parent``."""
         origin = np.asarray(origin, dtype=np.float64)
-        rel_to = None
-        rel = origin
+        rot = _I3 if rot is None else np.asarray(rot, dtype=np.float64)
+        rel_to, rel, rrel = None, origin, rot
         if parent is not None:
             rel_to = parent.ObjectPlacement
             rel = origin - self.origin[parent.id()]
-        entity.ObjectPlacement = self.f.createIfcLocalPlacement(rel_to, self._axis2(rel))
+            prot = self.rot.get(parent.id())
+            if prot is not None:
+                rel, rrel = prot.T @ rel, prot.T @ rot
+        turned = not np.allclose(rrel, _I3, rtol=0.0, atol=1e-12)
+        entity.ObjectPlacement = self.f.createIfcLocalPlacement(
+            rel_to, axis2(self.f, rel, rrel[:, 2] if turned else None, rrel[:, 0] if turned else None))
         self.origin[entity.id()] = origin
+        if not np.allclose(rot, _I3, rtol=0.0, atol=1e-12):
+            self.rot[entity.id()] = rot
 
     def _pset(self, product, name, props):
         props = {k: v for k, v in props.items() if v is not None}
@@ -362,47 +379,22 @@ class _Writer:
             self.styles[shape_type] = st
         return self.styles[shape_type]
 
-    def _polyline(self, pts2or3, closed=True):
-        pts = [self.f.createIfcCartesianPoint([float(c) for c in q]) for q in pts2or3]
-        if closed:
-            pts.append(pts[0])
-        return self.f.createIfcPolyline(pts)
-
-    def _solid(self, g: Polyhedron, origin):
-        """(item, representation type) of polyhedron ``g`` relative to ``origin`` (3,)."""
-        fp = g.footprint()
-        zmin, zmax = g.bounds[:, 2]
-        if fp is not None and zmax - zmin > 0:
-            fp = clean_ring(fp - origin[:2])
-            if fp is not None:
-                f = self.f
-                profile = f.createIfcArbitraryClosedProfileDef("AREA", None, self._polyline(fp))
-                solid = f.createIfcExtrudedAreaSolid(
-                    profile, self._axis2((0.0, 0.0, zmin - origin[2])), f.createIfcDirection([0.0, 0.0, 1.0]),
-                    float(zmax - zmin))
-                return solid, "SweptSolid"
-        return self._brep(g, origin), "Brep"
-
-    def _brep(self, g: Polyhedron, origin):
-        f = self.f
-        pts = [f.createIfcCartesianPoint([float(c) for c in v]) for v in g.vertices - origin]
-        faces = []
-        for face in g.faces:
-            idx = [i for k, i in enumerate(face) if i != face[k - 1]]  # drop repeated vertices
-            if len(idx) < 3:
-                continue
-            loop = f.createIfcPolyLoop([pts[i] for i in idx])
-            faces.append(f.createIfcFace([f.createIfcFaceOuterBound(loop, True)]))
-        return f.createIfcFacetedBrep(f.createIfcClosedShell(faces))
-
-    def _body(self, product, g: Polyhedron, shape_type, origin, extra=()):
-        item, rtype = self._solid(g, origin)
-        rep = self.f.createIfcShapeRepresentation(self.body, "Body", rtype, [item])
+    def _body(self, product, g: Polyhedron, shape_type, origin, extra=(), rot=None, geoms=None):
+        """Body (and ``extra`` representations) of ``product``: ``g``, or one item per
+        polyhedron of ``geoms``, in the frame at ``origin`` turned by ``rot``."""
+        items = [solid(self.f, x, origin, rot) for x in (geoms or [g])]
+        kinds = {t for _, t in items}
+        rtype = kinds.pop() if len(kinds) == 1 else "SolidModel"
+        rep = self.f.createIfcShapeRepresentation(self.body, "Body", rtype, [i for i, _ in items])
         self.api.style.assign_representation_styles(self.f, shape_representation=rep,
                                                     styles=[self._style(shape_type)])
-        reps = [rep] + list(extra)
-        product.Representation = self.f.createIfcProductDefinitionShape(None, None, reps)
+        product.Representation = self.f.createIfcProductDefinitionShape(None, None, [rep] + list(extra))
         return rtype
+
+    def _rel(self, ifc_class, key, **attributes):
+        """A relationship entity with the GlobalId of ``key`` (created directly, in bulk)."""
+        e = self.f.create_entity(ifc_class, GlobalId=self._gid(key), OwnerHistory=self._history(), **attributes)
+        return self._own(e, key)
 
     # ------------------------------------------------------------------ run
     def run(self):
@@ -435,7 +427,7 @@ class _Writer:
 
         site = self._root("IfcSite", ("site",), name="Site")
         sm = self.site_matrix
-        site.ObjectPlacement = f.createIfcLocalPlacement(None, self._axis2(sm[:3, 3], sm[:3, 2], sm[:3, 0]))
+        site.ObjectPlacement = f.createIfcLocalPlacement(None, axis2(f, sm[:3, 3], sm[:3, 2], sm[:3, 0]))
         self.origin[site.id()] = np.zeros(3)
         self._aggregate(project, [site])
         building = self._root("IfcBuilding", ("building",), name=m.name or "Building")
@@ -459,14 +451,16 @@ class _Writer:
         p.check()
         p(0.35, "walls and slabs")
         self._elements()
+        self._joins()
         p.check()
-        p(0.6, "doors")
-        self._doors()
+        p(0.6, "doors and windows")
+        self._openings()
         p.check()
         p(0.7, "space boundaries")
         self._boundaries()
         for sid, products in self.contained.items():
             self._contain(f.by_id(sid), products)
+        self._write_types()
         self._finish()
         p(1.0, "IFC built")
         return f
@@ -490,7 +484,7 @@ class _Writer:
         })
 
     def _writable(self, s: Shape) -> bool:
-        """Spaces (active or parts) and active walls, slabs, doors with a closed geometry."""
+        """Spaces (active or parts) and active walls, slabs, doors, windows with a closed geometry."""
         g = s.geometry
         if len(g.faces) < 4 or len(g.vertices) < 4 or g.volume() <= 0:
             log.warning("shape %s has no closed geometry: not written", s.id)
@@ -505,8 +499,10 @@ class _Writer:
             return self.storeys[s.storey]
         return self.building
 
-    def _shape_psets(self, e, s: Shape):
+    def _shape_psets(self, e, s: Shape, merged=None):
+        """``Indoor_Shape`` (``merged``: the ids of all the shapes ``e`` holds) and ``Indoor_Support``."""
         self._pset(e, PSET_SHAPE, {
+            "MergedShapeIds": dumps(merged) if merged else None,
             "ShapeId": s.id, "ShapeType": s.type.value, "Active": bool(s.active),
             "Terminal": bool(s.terminal), "StoreyIndex": int(s.storey),
             "Grid": None if s.grid is None else dumps(s.grid),
@@ -517,8 +513,9 @@ class _Writer:
             self._pset(e, PSET_SUPPORT, {k: float(v) for k, v in s.support.items()})
 
     @staticmethod
-    def _origin_of(g: Polyhedron):
-        b = g.bounds
+    def _origin_of(g):
+        """Bottom centre of the bounds of ``g`` (a Polyhedron, or its (2, 3) bounds)."""
+        b = g.bounds if isinstance(g, Polyhedron) else g
         return np.array([(b[0, 0] + b[1, 0]) / 2, (b[0, 1] + b[1, 1]) / 2, b[0, 2]])
 
     # ------------------------------------------------------------------ spaces
@@ -534,8 +531,22 @@ class _Writer:
                 d, q = d + 1, m[q.parent]
             order[s.id] = d
         spaces.sort(key=lambda s: order[s.id])
+        # one IfcExternalSpatialElement per storey: "exterior_s<k>" (else the first) holds the others
+        groups = {}
+        for s in spaces:
+            if s.type == ShapeType.EXTERIOR and s.active:
+                groups.setdefault(s.storey, []).append(s)
+        members = {}
+        for k, group in groups.items():
+            rep = next((x for x in group if x.id == f"exterior_s{k}"), group[0])
+            members[rep.id] = group
+            self.canon.update({x.id: rep.id for x in group})
         agg = {}
         for s in spaces:
+            if self.canon.get(s.id, s.id) != s.id:
+                continue
+            group = members.get(s.id, [s])
+            geoms = [self.geom[x.id] for x in group]
             g = self.geom[s.id]
             if s.type == ShapeType.INTERIOR:
                 e = self._root("IfcSpace", ("shape", s.id), predefined_type="SPACE", name=s.name or s.id)
@@ -547,20 +558,21 @@ class _Writer:
             parent = self.ent.get(s.parent) if s.parent is not None else None
             if parent is None or not parent.is_a("IfcSpace"):
                 parent = self._container_of(s)
-            origin = self._origin_of(g)
+            b = np.array([x.bounds for x in geoms])
+            origin = self._origin_of(np.array([b[:, 0].min(axis=0), b[:, 1].max(axis=0)]))
             self._placement(e, parent, origin)
+            fps = [x.footprint() for x in geoms]
+            rings = [fps[0]] if len(fps) == 1 and fps[0] is not None else union_rings(fps)
+            rings = [r for r in (clean_ring(r - origin[:2]) for r in rings) if r is not None]
             extra = []
-            fp = g.footprint()
-            if fp is not None:
-                ring = clean_ring(fp - origin[:2])
-                if ring is not None:
-                    curves = f.createIfcGeometricCurveSet([self._polyline(ring)])
-                    extra.append(f.createIfcShapeRepresentation(self.footprint, "FootPrint",
-                                                                "GeometricCurveSet", [curves]))
-            self._body(e, g, s.type, origin, extra)
+            if rings:
+                curves = f.createIfcGeometricCurveSet([polyline(f, r) for r in rings])
+                extra.append(f.createIfcShapeRepresentation(self.footprint, "FootPrint", "GeometricCurveSet",
+                                                            [curves]))
+            self._body(e, g, s.type, origin, extra, geoms=geoms)
             agg.setdefault(parent.id(), []).append(e)
-            self.ent[s.id] = e
-            self._shape_psets(e, s)
+            self.ent.update({x.id: e for x in group})
+            self._shape_psets(e, s, merged=[x.id for x in group] if len(group) > 1 else None)
             if s.type == ShapeType.INTERIOR:
                 zmin, zmax = g.bounds[:, 2]
                 fa, per = g.plan_area_perimeter()
@@ -574,197 +586,204 @@ class _Writer:
     # ------------------------------------------------------------------ walls, slabs
     def _elements(self):
         f, m = self.f, self.model
-        doors_of = {}
+        holes_of = {}
         for d in m.shapes:
-            if d.type == ShapeType.DOOR and d.parent is not None:
-                doors_of.setdefault(d.parent, []).append(d)
+            if d.type in (ShapeType.DOOR, ShapeType.WINDOW) and d.parent is not None and d.active:
+                holes_of.setdefault(d.parent, []).append(d)
         for s in m.shapes:
             if s.type not in (ShapeType.WALL, ShapeType.SLAB) or not self._writable(s):
                 continue
             g = self.geom[s.id]
-            if s.type == ShapeType.WALL:
-                e = self._root("IfcWall", ("shape", s.id), predefined_type="SOLIDWALL", name=s.name or s.id)
-            else:
-                e = self._root("IfcSlab", ("shape", s.id), predefined_type=self._slab_type(s, g),
-                               name=s.name or s.id)
-            container = self._container_of(s)
-            origin = self._origin_of(g)
-            self._placement(e, container, origin)
-            extra = []
-            if s.type == ShapeType.WALL:
-                axis = wall_axis(s, g)
-                if axis is not None:
-                    a = axis - origin[:2]
-                    extra.append(f.createIfcShapeRepresentation(self.axis, "Axis", "Curve2D",
-                                                                [self._polyline(a, closed=False)]))
-            self._body(e, g, s.type, origin, extra)
-            self.contained.setdefault(container.id(), []).append(e)
-            self.ent[s.id] = e
-            self._shape_psets(e, s)
             zmin, zmax = g.bounds[:, 2]
             vol = g.volume()
+            container = self._container_of(s)
+            size = np.sort(s.scope.size[:2])
             if s.type == ShapeType.WALL:
-                size = np.sort(s.scope.size[:2])
+                external = bool(s.attributes.get("external", s.attributes.get("exterior", False)))
                 thick = float(s.attributes.get("thickness", size[0]))
-                length, height = float(size[1]), float(zmax - zmin)
-                holes = [d for d in doors_of.get(s.id, [])]
-                hole_area = sum(door_size(d)[0] * door_size(d)[1] for d in holes)
-                self._qto(e, "Qto_WallBaseQuantities", {
+                axis = axis_line(s, self.bake)
+                frame = None if axis is None else wall_frame(axis, float(zmin))
+                e = self._root("IfcWall", ("shape", s.id), predefined_type="SOLIDWALL", name=s.name or s.id)
+                extra = []
+                if frame is not None:
+                    origin, rot, length = frame
+                    extra.append(f.createIfcShapeRepresentation(
+                        self.axis, "Axis", "Curve2D", [polyline(f, [(0.0, 0.0), (length, 0.0)], closed=False)]))
+                else:
+                    origin, rot, length = self._origin_of(g), None, float(size[1])
+                self._placement(e, container, origin, rot)
+                self._body(e, g, s.type, origin, extra, rot)
+                self._pset(e, "Pset_WallCommon", {"IsExternal": external})
+                self._layered(e, "IfcWallType", "SOLIDWALL", "Exterior wall" if external else "Wall", thick,
+                              "AXIS2" if frame is not None else None)
+                height = float(zmax - zmin)
+                hole_area = sum(door_size(d)[0] * door_size(d)[1] for d in holes_of.get(s.id, []))
+                qto = ("Qto_WallBaseQuantities", {
                     "Length": length, "Width": thick, "Height": height, "GrossSideArea": length * height,
                     "NetSideArea": max(length * height - hole_area, 0.0), "GrossVolume": vol,
                     "NetVolume": max(vol - hole_area * thick, 0.0)})
             else:
+                kind = s.attributes.get("kind", s.attributes.get("role", ""))
+                ptype = slab_type(kind, zmin, zmax, self.model.storeys, self.params.boundary_gap)
+                e = self._root("IfcSlab", ("shape", s.id), predefined_type=ptype, name=s.name or s.id)
+                origin = self._origin_of(g)
+                self._placement(e, container, origin)
+                self._body(e, g, s.type, origin)
+                self._pset(e, "Pset_SlabCommon", {"IsExternal": ptype in ("ROOF", "BASESLAB")})
+                thick = float(s.attributes.get("thickness", zmax - zmin))
+                self._layered(e, "IfcSlabType", ptype, SLAB_MATERIALS[ptype], thick, "AXIS3")
                 fa, per = g.plan_area_perimeter()
-                self._qto(e, "Qto_SlabBaseQuantities", {
+                qto = ("Qto_SlabBaseQuantities", {
                     "Width": zmax - zmin, "GrossArea": fa, "NetArea": fa, "Perimeter": per,
                     "GrossVolume": vol, "NetVolume": vol})
+            self.contained.setdefault(container.id(), []).append(e)
+            self.ent[s.id] = e
+            self._shape_psets(e, s)
+            self._qto(e, *qto)
 
-    def _slab_type(self, s: Shape, g: Polyhedron) -> str:
-        kind = str(s.attributes.get("kind", s.attributes.get("role", ""))).lower()
-        if kind in ("roof",):
-            return "ROOF"
-        if kind in ("base", "baseslab", "ground"):
-            return "BASESLAB"
-        if not self.model.storeys:
-            return "FLOOR"
-        zmin, zmax = g.bounds[:, 2]
-        lowest = min(st.floor_z for st in self.model.storeys)
-        highest = max(st.ceiling_z for st in self.model.storeys)
-        if kind != "ceiling" and zmax <= lowest + self.params.boundary_gap:
-            return "BASESLAB"
-        if kind != "floor" and zmin >= highest - self.params.boundary_gap:
-            return "ROOF"
-        return "FLOOR"
+    # ------------------------------------------------------------------ types, materials
+    def _typed(self, product, type_class: str, ptype: str, name: str, **attributes):
+        """Give ``product`` the element type ``name`` (made on first use); its entry in
+        :attr:`types`. Relationships are written in bulk by :meth:`_write_types`."""
+        key = ("type", type_class, ptype, name)
+        entry = self.types.get(key)
+        if entry is None:
+            te = self._root(type_class, key, predefined_type=ptype, name=name)
+            for k, v in attributes.items():
+                setattr(te, k, v)
+            entry = self.types[key] = {"type": te, "objects": [], "set": None, "usages": {}}
+        entry["objects"].append(product)
+        return entry
 
-    # ------------------------------------------------------------------ doors
-    def _doors(self):
-        f, m = self.f, self.model
-        for d in m.shapes:
-            if d.type != ShapeType.DOOR or not self._writable(d):
+    def _layered(self, product, type_class, ptype, material_name, thickness, direction):
+        """Type of one material layer of ``thickness`` (m, rounded to ``type_step``) for a
+        wall or slab, and the layer-set usage in ``direction`` (AXIS2: centred on the wall
+        axis; AXIS3: up from the slab's bottom; None: no usage, the type's set applies)."""
+        mm = millimetres(thickness, self.params.type_step)
+        if mm <= 0:
+            return
+        entry = self._typed(product, type_class, ptype, f"{material_name} {mm} mm")
+        t = mm / 1000.0
+        if entry["set"] is None:
+            mat = self.materials.get(material_name)
+            if mat is None:
+                mat = self.materials[material_name] = self.f.create_entity("IfcMaterial", Name=material_name)
+            layer = self.f.create_entity("IfcMaterialLayer", Material=mat, LayerThickness=t, Name=material_name)
+            entry["set"] = self.f.create_entity("IfcMaterialLayerSet", MaterialLayers=[layer],
+                                                LayerSetName=entry["type"].Name)
+        if direction is None:
+            return
+        usage = entry["usages"].get(direction)
+        if usage is None:
+            u = self.f.create_entity("IfcMaterialLayerSetUsage", ForLayerSet=entry["set"], LayerSetDirection=direction,
+                                     DirectionSense="POSITIVE",
+                                     OffsetFromReferenceLine=-t / 2 if direction == "AXIS2" else 0.0)
+            usage = entry["usages"][direction] = (u, [])
+        usage[1].append(product)
+
+    def _write_types(self):
+        """IfcRelDefinesByType per type; IfcRelAssociatesMaterial per layer set and usage."""
+        for entry in self.types.values():
+            te = entry["type"]
+            tk = self._key(te)
+            self._rel("IfcRelDefinesByType", (tk, "types"), RelatedObjects=entry["objects"], RelatingType=te)
+            if entry["set"] is not None:
+                self._rel("IfcRelAssociatesMaterial", (tk, "material"), RelatedObjects=[te],
+                          RelatingMaterial=entry["set"])
+            for direction, (usage, objects) in entry["usages"].items():
+                self._rel("IfcRelAssociatesMaterial", (tk, "usage", direction), RelatedObjects=objects,
+                          RelatingMaterial=usage)
+
+    def _joins(self):
+        """IfcRelConnectsPathElements per wall join (attribute ``joins``), each pair once."""
+        seen = set()
+        for s in self.model.shapes:
+            if s.type != ShapeType.WALL or s.id not in self.ent:
                 continue
+            for j in s.attributes.get("joins", ()) or ():
+                other = j.get("wall") if isinstance(j, dict) else None
+                if other == s.id or other not in self.ent or not self.ent[other].is_a("IfcWall"):
+                    continue
+                pair = frozenset((s.id, other))
+                if pair in seen:
+                    continue
+                seen.add(pair)
+                self._rel("IfcRelConnectsPathElements", ("joins", s.id, other), RelatingElement=self.ent[s.id],
+                          RelatedElement=self.ent[other], RelatingPriorities=[], RelatedPriorities=[],
+                          RelatingConnectionType=connection_type(j.get("at")),
+                          RelatedConnectionType=connection_type(j.get("other_at")))
+
+    # ------------------------------------------------------------------ doors, windows, openings
+    def _openings(self):
+        m = self.model
+        ends = {}
+        for r in m.relations:
+            if r.via is not None:
+                ends.setdefault(r.via, set()).update((r.a, r.b))
+        for d in m.shapes:
+            if d.type not in (ShapeType.DOOR, ShapeType.WINDOW) or not self._writable(d):
+                continue
+            window = d.type == ShapeType.WINDOW
+            kind = str(d.attributes.get("kind", "window" if window else "door")).lower()
+            wall = self.ent.get(d.parent) if d.parent is not None else None
+            if wall is not None and not wall.is_a("IfcWall"):
+                wall = None
+            rot = self.rot.get(wall.id()) if wall is not None else None
             g = self.geom[d.id]
-            e = self._root("IfcDoor", ("shape", d.id), predefined_type="DOOR", name=d.name or d.id)
+            origin = self._origin_of(g)
             w, h = door_size(d)
+            if kind == "opening" and not window:
+                if wall is None:
+                    log.warning("doorless opening %s has no wall to void: not written", d.id)
+                    continue
+                op = self._void(d, wall, origin, rot, ("shape", d.id), d.name or d.id)
+                self.ent[d.id] = op
+                self._shape_psets(op, d)
+                depth = float(m[d.parent].attributes.get("thickness", np.min(m[d.parent].scope.size[:2])))
+                self._qto(op, "Qto_OpeningElementBaseQuantities", {"Width": w, "Height": h, "Depth": depth,
+                                                                   "Area": w * h})
+                continue
+            spaces = set(ends.get(d.id, ()))
+            sp = d.attributes.get("spaces")
+            if isinstance(sp, (list, tuple)):
+                spaces.update(x for x in sp if isinstance(x, str))
+            external = any(x in m and m[x].type == ShapeType.EXTERIOR for x in spaces)
+            cls, name = ("IfcWindow", "Window") if window else ("IfcDoor", "Door")
+            e = self._root(cls, ("shape", d.id), predefined_type=name.upper(), name=d.name or d.id)
             e.OverallWidth, e.OverallHeight = float(w), float(h)
             container = self._container_of(d)
-            origin = self._origin_of(g)
-            self._placement(e, container, origin)
-            self._body(e, g, ShapeType.DOOR, origin)
+            self._placement(e, container, origin, rot)
+            self._body(e, g, d.type, origin, rot=rot)
             self.contained.setdefault(container.id(), []).append(e)
             self.ent[d.id] = e
             self._shape_psets(e, d)
-            self._qto(e, "Qto_DoorBaseQuantities", {"Width": w, "Height": h, "Area": w * h})
-            wall = self.ent.get(d.parent) if d.parent is not None else None
-            if wall is None or not wall.is_a("IfcWall"):
-                log.warning("door %s has no wall to void; written without an opening", d.id)
-                continue
-            op = self._root("IfcOpeningElement", ("opening", d.id), predefined_type="OPENING",
-                            name=f"Opening {d.name or d.id}")
-            og = opening_geometry(d, self.geom[d.id], self.geom[d.parent], self.params.opening_margin)
-            self._placement(op, wall, origin)
-            item, rtype = self._solid(og, origin)
-            op.Representation = f.createIfcProductDefinitionShape(
-                None, None, [f.createIfcShapeRepresentation(self.body, "Body", rtype, [item])])
-            # not api.feature.add_feature: it rebuilds the opening's placement through the api
-            voids, fills = (self._key(op), "voids"), (self._key(op), "fills")
-            self._own(f.createIfcRelVoidsElement(self._gid(voids), self._history(), None, None, wall, op),
-                      voids)
-            self._own(f.createIfcRelFillsElement(self._gid(fills), self._history(), None, None, op, e),
-                      fills)
-
-    # ------------------------------------------------------------------ boundaries
-    def _boundaries(self):
-        m, prm = self.model, self.params
-        done = set()
-        n = 0
-        for r in m.relations:
-            if r.a not in self.ent or r.b not in self.ent:
-                continue
-            sa, sb = self.ent[r.a], self.ent[r.b]
-            if not (_is_space_entity(sa) and _is_space_entity(sb)):
-                continue
-            ext = m[r.a].type == ShapeType.EXTERIOR or m[r.b].type == ShapeType.EXTERIOR
-            io = "EXTERNAL" if ext else "INTERNAL"
-            if r.via is not None and r.via in self.ent and not _is_space_entity(self.ent[r.via]):
-                elem, elem_shape, phys = self.ent[r.via], r.via, "PHYSICAL"
+            self._pset(e, f"Pset_{name}Common", {"IsExternal": external})
+            self._qto(e, f"Qto_{name}BaseQuantities", {"Width": w, "Height": h, "Perimeter": 2 * (w + h),
+                                                       "Area": w * h})
+            step = self.params.type_step
+            size = f"{name} {millimetres(w, step)} x {millimetres(h, step)} mm"
+            if window:
+                self._typed(e, "IfcWindowType", "WINDOW", size, PartitioningType="NOTDEFINED")
             else:
-                key = ("virtual", r.a, r.b)
-                if key not in self.ent:
-                    label = f"Open boundary {m[r.a].name or r.a} | {m[r.b].name or r.b}"
-                    ve = self._root("IfcVirtualElement", ("virtual", r.a, r.b), name=label)
-                    container = self._container_of(m[r.a])
-                    self._placement(ve, container, self.origin[sa.id()])
-                    self.contained.setdefault(container.id(), []).append(ve)
-                    self._pset(ve, PSET_SHAPE, {"ShapeId": f"open:{r.a}|{r.b}", "ShapeType": "virtual",
-                                                "RelationKinds": r.kind})
-                    self.ent[key] = ve
-                else:
-                    ps = _find_pset(self.ent[key], PSET_SHAPE)
-                    if ps is not None:
-                        kinds = sorted(set(ps.get("RelationKinds", "").split(",")) | {r.kind})
-                        self._pset_update(self.ent[key], PSET_SHAPE,
-                                          {"RelationKinds": ",".join(k for k in kinds if k)})
-                elem, elem_shape, phys = self.ent[key], None, "VIRTUAL"
-            if (r.a, r.b, elem.id()) in done:
+                self._typed(e, "IfcDoorType", "DOOR", size, OperationType="NOTDEFINED")
+            if wall is None:
+                log.warning("%s %s has no wall to void; written without an opening", name.lower(), d.id)
                 continue
-            done.add((r.a, r.b, elem.id()))
-            ba = self._boundary(r.a, sa, elem, elem_shape, phys, io, "2a", partner=r.b)
-            bb = self._boundary(r.b, sb, elem, elem_shape, phys, io, "2a", partner=r.a)
-            ba.CorrespondingBoundary, bb.CorrespondingBoundary = bb, ba
-            done.add((r.a, elem.id()))
-            done.add((r.b, elem.id()))
-            n += 2
-        if prm.geometric_boundaries:
-            spaces = [s for s in m.shapes if s.is_space and s.active and s.id in self.ent]
-            elems = [s for s in m.shapes if s.type in (ShapeType.WALL, ShapeType.SLAB) and s.id in self.ent]
-            for s in spaces:
-                for w in elems:
-                    if (s.id, self.ent[w.id].id()) in done:
-                        continue
-                    common = common_face(self.geom[s.id], self.geom[w.id], prm.boundary_gap, prm.boundary_cos,
-                                         prm.min_boundary_area, self.tables)
-                    if common is None:
-                        continue
-                    io = "EXTERNAL" if s.type == ShapeType.EXTERIOR else "NOTDEFINED"
-                    self._boundary(s.id, self.ent[s.id], self.ent[w.id], w.id, "PHYSICAL", io, "2b", common)
-                    done.add((s.id, self.ent[w.id].id()))
-                    n += 1
-        log.debug("%d space boundaries", n)
+            op = self._void(d, wall, origin, rot, ("opening", d.id), f"Opening {d.name or d.id}")
+            # not api.feature.add_filling: it rebuilds the placements through the api
+            self._rel("IfcRelFillsElement", (self._key(op), "fills"), RelatingOpeningElement=op,
+                      RelatedBuildingElement=e)
 
-    def _pset_update(self, product, name, props):
-        for rel in getattr(product, "IsDefinedBy", ()) or ():
-            pd = rel.RelatingPropertyDefinition
-            if rel.is_a("IfcRelDefinesByProperties") and pd.is_a("IfcPropertySet") and pd.Name == name:
-                self.api.pset.edit_pset(self.f, pset=pd, properties=props)
-                return
-
-    def _boundary(self, space_id, space, elem, elem_shape, phys, io, level, common=None, partner=None):
-        """The boundary of space ``space_id`` by ``elem``; ``partner`` is the space on the other
-        side for a relation's boundary (its key tells the two boundaries of one wall apart)."""
+    def _void(self, d: Shape, wall, origin, rot, key, name):
+        """IfcOpeningElement of door or window ``d`` (its box through the wall) voiding ``wall``."""
         f = self.f
-        b = self._root("IfcRelSpaceBoundary2ndLevel", ("boundary", space_id, self._key(elem), partner))
-        b.Name, b.Description = "2ndLevel", level
-        self.api.boundary.edit_attributes(f, entity=b, relating_space=space, related_building_element=elem,
-                                          physical_or_virtual=phys, internal_or_external=io)
-        if common is None and elem_shape is not None:
-            prm = self.params
-            common = common_face(self.geom[space_id], self.geom[elem_shape], prm.boundary_gap,
-                                 prm.boundary_cos, prm.min_boundary_area, self.tables)
-        if common is not None:
-            poly2, origin, normal, u = common
-            loc = origin - self.origin[space.id()]
-            self.api.boundary.assign_connection_geometry(
-                f, rel_space_boundary=b, outer_boundary=poly2, location=loc, axis=normal, ref_direction=u,
-                unit_scale=1.0)
-        return b
-
-
-# --------------------------------------------------------------------------- entities
-def _is_space_entity(e) -> bool:
-    return e.is_a("IfcSpace") or e.is_a("IfcExternalSpatialElement")
-
-
-def _find_pset(product, name):
-    import ifcopenshell.util.element as ue
-
-    return ue.get_psets(product).get(name)
+        op = self._root("IfcOpeningElement", key, predefined_type="OPENING", name=name)
+        og = opening_geometry(d, self.geom[d.id], self.geom[d.parent], self.params.opening_margin)
+        self._placement(op, wall, origin, rot)
+        item, rtype = solid(f, og, origin, rot)
+        op.Representation = f.createIfcProductDefinitionShape(
+            None, None, [f.createIfcShapeRepresentation(self.body, "Body", rtype, [item])])
+        # not api.feature.add_feature: it rebuilds the opening's placement through the api
+        self._rel("IfcRelVoidsElement", (self._key(op), "voids"), RelatingBuildingElement=wall,
+                  RelatedOpeningElement=op)
+        return op

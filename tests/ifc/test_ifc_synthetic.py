@@ -26,7 +26,7 @@ def test_preset_truth_writes_valid_ifc_that_round_trips(name, tmp_path):
     storey_index = {s.id(): ue.get_psets(s)["Indoor_Storey"]["Index"] for s in f.by_type("IfcBuildingStorey")}
     assert sorted(storey_index.values()) == [s.index for s in truth.storeys]
     n_products = 0
-    for cls in ("IfcSpace", "IfcExternalSpatialElement", "IfcWall", "IfcSlab", "IfcDoor"):
+    for cls in ("IfcSpace", "IfcExternalSpatialElement", "IfcWall", "IfcSlab", "IfcDoor", "IfcWindow"):
         for e in f.by_type(cls):
             shape = truth[ue.get_psets(e)["Indoor_Shape"]["ShapeId"]]
             is_space = cls in ("IfcSpace", "IfcExternalSpatialElement")
@@ -36,7 +36,7 @@ def test_preset_truth_writes_valid_ifc_that_round_trips(name, tmp_path):
             assert storey_index[holder.id()] == shape.storey, (cls, shape.id)
             n_products += 1
     assert n_products == sum(1 for s in truth.shapes if s.type.value != "none")
-    assert len(f.by_type("IfcOpeningElement")) == len(truth.doors)
+    assert len(f.by_type("IfcOpeningElement")) == len(truth.doors) + len(truth.windows)
 
     settings = ifcopenshell.geom.settings()
     settings.set("use-world-coords", True)
