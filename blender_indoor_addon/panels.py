@@ -135,6 +135,9 @@ class INDOOR_PT_review(_IndoorPanel, bpy.types.Panel):
         if obj is not None and bridge.SHAPE_PROP in obj:
             layout.label(text=f"{obj.name}: {obj.get('indoor_type', '?')} ({obj[bridge.SHAPE_PROP]})",
                          icon="OBJECT_DATA")
+            element = bridge.element_label(obj)
+            if element:
+                layout.label(text=element, icon="MOD_BUILD")
         if settings is None:
             return
         col = layout.column(align=True)
@@ -147,9 +150,11 @@ class INDOOR_PT_review(_IndoorPanel, bpy.types.Panel):
         col.prop(settings, "door_position_mode")
         if settings.door_position_mode == "VALUE":
             col.prop(settings, "door_position")
+        col.prop(settings, "door_snap")
         op = col.operator("indoor.insert_door", icon="MESH_PLANE")
         op.width, op.height = settings.door_width, settings.door_height
         op.position_mode, op.position = settings.door_position_mode, settings.door_position
+        op.snap_distance = settings.door_snap
         layout.operator("indoor.revert_edit", icon="LOOP_BACK")
 
 

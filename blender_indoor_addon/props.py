@@ -136,6 +136,11 @@ class INDOOR_PG_settings(bpy.types.PropertyGroup):
                                      description="Where the door's centre goes")
     door_position: FloatProperty(name="Along wall", default=1.0, min=0.0, subtype="DISTANCE",
                                  unit="LENGTH", description="Door centre from the wall's start, metres")
+    door_snap: FloatProperty(name="Snap to opening", default=0.5, min=0.0, soft_max=2.0, subtype="DISTANCE",
+                             unit="LENGTH",
+                             description="Insert door takes the place and size of a detected doorless "
+                                         "opening of the wall within this distance along the wall, metres "
+                                         "(0: never)")
     # Topology (cached results: the panel only reads them)
     path_text: StringProperty(name="Path", default="",
                               description="Room sequence of the last shortest path")

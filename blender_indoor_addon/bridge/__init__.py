@@ -10,7 +10,8 @@ This index re-exports the public names of its modules:
   call made is removed);
 * :mod:`.points` — point meshes of scans: attributes, the "Indoor Points" display, back to
   a :class:`~engine.pointcloud.PointCloud`;
-* :mod:`.model_objects` — one object per shape of a model, edits, the model ↔ scene frame;
+* :mod:`.shapes` — one object per shape of a model (collections by type, element colours),
+  edits, the model ↔ scene frame;
 * :mod:`.storage` — the stored model JSON and its edit history (text blocks);
 * :mod:`.overlays` — graph and path curves, planar patches coloured by a value;
 * :mod:`.results` — change detection and evaluation views.
@@ -25,9 +26,9 @@ from .points import (COUNT_PROP, HEIGHT_COLOR, HEIGHT_RAMP, IN_MATERIAL, IN_RADI
                      SCAN_COLLECTION, SOURCE_PROP, add_height_colors, display_settings, input_identifier,
                      is_point_mesh, object_points, object_to_cloud, point_cloud_to_object, points_material,
                      points_node_group, set_display, write_attribute)
-from .shapes import (CELLS_COLLECTION, MODEL_COLLECTION, SHAPE_PROP, TYPE_COLLECTIONS, TYPE_COLORS,
-                     apply_edit, model_matrix, model_objects, model_to_objects, restore_previous,
-                     shape_ids_of, to_model_frame)
+from .shapes import (CELLS_COLLECTION, MODEL_COLLECTION, SHAPE_PROP, STYLE_COLORS, STYLE_MATERIALS,
+                     TYPE_COLLECTIONS, TYPE_COLORS, apply_edit, element_label, model_matrix, model_objects,
+                     model_to_objects, restore_previous, shape_ids_of, shape_style, to_model_frame)
 from .storage import (HISTORY_DEPTH, HISTORY_TEXT, MODEL_TEXT, drop_previous, history_length, previous_model,
                       push_history, stored_model, write_model_text)
 from .overlays import (COVERAGE_RAMP, CURVE_BEVEL, FLAG_ALPHA, GRAPH_OBJECTS, OVERLAY_COLORS,
@@ -47,7 +48,8 @@ __all__ = [
     "HEIGHT_RAMP", "points_node_group", "points_material", "write_attribute", "point_cloud_to_object",
     "set_display", "display_settings", "input_identifier", "is_point_mesh", "object_points",
     "add_height_colors", "object_to_cloud", "MODEL_COLLECTION", "TYPE_COLLECTIONS", "CELLS_COLLECTION",
-    "TYPE_COLORS", "SHAPE_PROP", "model_objects", "model_to_objects", "apply_edit", "restore_previous",
+    "TYPE_COLORS", "STYLE_COLORS", "STYLE_MATERIALS", "SHAPE_PROP", "shape_style", "element_label",
+    "model_objects", "model_to_objects", "apply_edit", "restore_previous",
     "shape_ids_of", "model_matrix", "to_model_frame", "MODEL_TEXT", "HISTORY_TEXT", "HISTORY_DEPTH",
     "write_model_text", "stored_model", "push_history", "history_length", "previous_model",
     "drop_previous", "TOPOLOGY_COLLECTION", "GRAPH_OBJECTS", "PATH_OBJECT", "OVERLAY_COLORS",

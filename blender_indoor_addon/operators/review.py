@@ -1,4 +1,10 @@
-"""Review and fix (Reclassify, Insert door, Revert last edit) and Topology (graphs, shortest path)."""
+"""Review and fix (Reclassify, Insert door, Revert last edit) and Topology (graphs, shortest path).
+
+On a model with building elements (wall runs, openings, slabs, storey exteriors) the edits go
+through :mod:`.elements`: Reclassify rebuilds the walls, slabs and exteriors and keeps the
+openings in their walls; Insert door puts a door in a wall run and snaps it to a detected
+doorless opening nearby. Other models (older files, reference models) use the bare rules.
+"""
 from __future__ import annotations
 
 import bpy
@@ -8,6 +14,8 @@ from ...engine.topology import describe_path, insert_door, reclassify, shortest_
 from .. import bridge
 from ..props import EDIT_TYPE_ITEMS, POSITION_ITEMS
 from .common import has_model, show_model_change, stored_or_report
+from .elements import (SNAP_DISTANCE, has_elements, insert_wall_door, made_by_elements,
+                       reclassify_with_elements)
 from .engine_call import engine_call
 
 __all__ = ["INDOOR_OT_reclassify", "INDOOR_OT_insert_door", "INDOOR_OT_revert_edit", "INDOOR_OT_show_graph",
@@ -44,19 +52,30 @@ class INDOOR_OT_reclassify(bpy.types.Operator):
         if not ids:
             self.report({"ERROR"}, "select shapes of the model (spaces, walls, exterior)")
             return {"CANCELLED"}
+        dropped = ()
         with engine_call(self, context, progress_bar=False) as call:
-            new = reclassify(model, ids, self.type)
+            if has_elements(model):  # walls, slabs, exteriors rebuilt; openings kept in their walls
+                result = reclassify_with_elements(model, ids, self.type)
+                new, dropped = result.model, result.dropped
+            else:
+                new = reclassify(model, ids, self.type)
             bridge.apply_edit(model, new, scene=context.scene)
         if call.failed:
             return {"CANCELLED"}
         show_model_change(self, context, new)
-        self.report({"INFO"}, f"Reclassified {len(ids)} shape(s) as {self.type}: "
-                              f"{len(new.spaces)} spaces, {len(new.walls)} walls, {len(new.doors)} doors")
+        text = (f"Reclassified {len(ids)} shape(s) as {self.type}: {len(new.spaces)} spaces, "
+                f"{len(new.walls)} walls, {len(new.doors)} doors, {len(new.windows)} windows")
+        if dropped:
+            self.report({"WARNING"}, f"{text}; {len(dropped)} opening(s) lie in no wall any more and were "
+                                     f"removed: {', '.join(model[i].name or i for i in dropped)}")
+        else:
+            self.report({"INFO"}, text)
         return {"FINISHED"}
 
 
 class INDOOR_OT_insert_door(bpy.types.Operator):
-    """Insert a door in the active wall, at the 3D cursor or at a distance along the wall"""
+    """Insert a door in the active wall, at the 3D cursor or at a distance along the wall; near a
+    detected doorless opening it takes that opening's place and size"""
 
     bl_idname = "indoor.insert_door"
     bl_label = "Insert Door"
@@ -67,6 +86,11 @@ class INDOOR_OT_insert_door(bpy.types.Operator):
     position_mode: EnumProperty(name="Position", items=POSITION_ITEMS, default="CURSOR")
     position: FloatProperty(name="Along wall", default=1.0, min=0.0, subtype="DISTANCE", unit="LENGTH",
                             description="Door centre from the wall's start, metres (Position = Value)")
+    snap_distance: FloatProperty(name="Snap to opening", default=SNAP_DISTANCE, min=0.0, soft_max=2.0,
+                                 subtype="DISTANCE", unit="LENGTH",
+                                 description="A detected doorless opening of the wall within this "
+                                             "distance (along the wall, metres) becomes the door, with its "
+                                             "position and size; 0 never snaps")
     wall_id: StringProperty(name="Wall id", default="", options={"SKIP_SAVE"},
                             description="Id of the wall (default: the active object)")
 
@@ -79,7 +103,8 @@ class INDOOR_OT_insert_door(bpy.types.Operator):
         settings = getattr(context.scene, "indoor", None)
         if settings is not None:
             for mine, theirs in (("width", "door_width"), ("height", "door_height"),
-                                 ("position_mode", "door_position_mode"), ("position", "door_position")):
+                                 ("position_mode", "door_position_mode"), ("position", "door_position"),
+                                 ("snap_distance", "door_snap")):
                 if not self.properties.is_property_set(mine):
                     setattr(self, mine, getattr(settings, theirs))
         return self.execute(context)
@@ -98,15 +123,26 @@ class INDOOR_OT_insert_door(bpy.types.Operator):
             position = bridge.to_model_frame(model, context.scene.cursor.location)
         else:
             position = float(self.position)
+        wall = model.get(wall_id)
+        result = None
         with engine_call(self, context, progress_bar=False) as call:
-            new = insert_door(model, wall_id, position=position, width=self.width, height=self.height)
+            if wall is not None and made_by_elements(wall) and "axis_line" in wall.attributes:
+                result = insert_wall_door(model, wall_id, position=position, width=self.width,
+                                          height=self.height, snap=self.snap_distance)
+                new = result.model
+            else:
+                new = insert_door(model, wall_id, position=position, width=self.width, height=self.height)
             bridge.apply_edit(model, new, scene=context.scene)
         if call.failed:
             return {"CANCELLED"}
         show_model_change(self, context, new)
-        door = next(s for s in new.doors if s.id not in model)
-        self.report({"INFO"}, f"Inserted {door.name} ({self.width:.2f} x {self.height:.2f} m) in {wall_id} "
-                              f"at {door.attributes['position']:.2f} m")
+        door = new[result.door_id] if result is not None else next(s for s in new.doors if s.id not in model)
+        a = door.attributes
+        text = (f"Inserted {door.name} ({a['width']:.2f} x {a['height']:.2f} m) in "
+                f"{wall.name if wall is not None and wall.name else wall_id} at {a['position']:.2f} m")
+        if result is not None and result.snapped is not None:
+            text += f", snapped to {result.snapped_name} ({result.snap_distance:.2f} m away)"
+        self.report({"INFO"}, text)
         return {"FINISHED"}
 
 
