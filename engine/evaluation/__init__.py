@@ -4,10 +4,13 @@
 b = r (1–10 cm by default), per semantic group (wall / floor / ceiling) and overall, and
 localises missing reference surfaces and redundant source surfaces.
 :func:`annotate_visibility` marks reference surfaces visible/interpreted from a scan
-(point-on-face index). :func:`load_model` reads JSON, IFC and OBJ/PLY models;
+(point-on-face index). :func:`evaluate_elements` scores building elements (doors, windows,
+exterior walls, slabs, rooms, wall runs, the door graph) against a true model.
+:func:`load_model` reads JSON, IFC and OBJ/PLY models;
 :func:`write_evaluation_outputs` writes JSON, CSV, a PNG plot and coloured PLY files.
 """
 from .coverage import PatchSupport, alpha_area, patch_support
+from .elements import ElementMatchParams, evaluate_elements, exterior_outline, true_wall_runs
 from .loading import MODEL_EXTENSIONS, load_model, mesh_to_model
 from .metrics import DEFAULT_BUFFERS, GROUPS, EvaluationParams, EvaluationResult, evaluate
 from .patches import PlanarPatch, patches_from_model
@@ -19,4 +22,5 @@ __all__ = [
     "annotate_visibility", "VisibilityParams", "load_model", "mesh_to_model", "MODEL_EXTENSIONS",
     "PlanarPatch", "patches_from_model", "alpha_area", "patch_support", "PatchSupport",
     "write_evaluation_outputs", "write_ply_arrays",
+    "evaluate_elements", "ElementMatchParams", "true_wall_runs", "exterior_outline",
 ]

@@ -9,7 +9,10 @@ Files written by :func:`write_evaluation_outputs` into ``out_dir`` (each atomica
   grey = interpreted), vertex property ``covered``;
 * ``source_surfaces.ply`` — source surfaces coloured the same way by their overlap share;
 * ``accuracy_points.ply`` — the accuracy samples with their ``distance`` (metres, -1 when
-  no source surface is within the largest cut-off), coloured blue (0) → red (≥ largest b).
+  no source surface is within the largest cut-off), coloured blue (0) → red (≥ largest b);
+* ``elements.json`` — only when ``elements`` is given: the element scores of
+  :func:`engine.evaluation.elements.evaluate_elements` (also under ``"elements"`` in
+  ``evaluation.json``).
 """
 from __future__ import annotations
 
@@ -114,8 +117,13 @@ def _plot(result: EvaluationResult, path: str, title: str) -> None:
 
 
 def write_evaluation_outputs(result: EvaluationResult, out_dir, *, title: str = "",
-                             extra: Optional[dict] = None) -> dict:
-    """Write the evaluation files into ``out_dir``; returns name → path of what was written."""
+                             extra: Optional[dict] = None, elements: Optional[dict] = None) -> dict:
+    """Write the evaluation files into ``out_dir``; returns name → path of what was written.
+
+    ``extra`` : more keys for ``evaluation.json``; ``elements`` : the dict of
+    :func:`~engine.evaluation.elements.evaluate_elements`, written to ``elements.json`` and
+    under ``"elements"`` in ``evaluation.json`` (key ``"elements"`` of the returned paths).
+    """
     out_dir = os.fspath(out_dir)
     os.makedirs(out_dir, exist_ok=True)
     paths = {k: os.path.join(out_dir, f) for k, f in (
@@ -125,6 +133,10 @@ def write_evaluation_outputs(result: EvaluationResult, out_dir, *, title: str = 
     d = result.to_dict()
     if extra:
         d.update(extra)
+    if elements is not None:
+        d["elements"] = elements
+        paths["elements"] = os.path.join(out_dir, "elements.json")
+        atomic_write_text(paths["elements"], json.dumps(elements, indent=2))
     atomic_write_text(paths["json"], json.dumps(d, indent=2))
     s = io.StringIO()
     w = csv.writer(s)
