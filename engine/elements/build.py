@@ -158,16 +158,19 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
     """
     prm = params or ElementsParams()
     t0 = time.perf_counter()
+    detect = cloud is not None and prm.detect_openings
     keep, old_openings = [], []
     for s in model.shapes:
-        if _made_here(s):
-            if s.type in (ShapeType.DOOR, ShapeType.WINDOW) and not s.attributes.get("detected", False):
+        if s.type in (ShapeType.DOOR, ShapeType.WINDOW):
+            # openings found in an earlier run are found again when there is a scan
+            if not (detect and s.attributes.get("detected", False)):
                 old_openings.append(s)
             continue
-        if s.type in (ShapeType.DOOR, ShapeType.WINDOW):
-            old_openings.append(s)
+        if _made_here(s):
             continue
         keep.append(s)
+    made_ext = {s.id for s in model.shapes if s.type == ShapeType.EXTERIOR and _made_here(s)}
+    model, keep = _free_exterior_ids(model, keep)
     base = model.with_(shapes=tuple(keep), relations=tuple(r for r in model.relations))
     by_storey = _storey_spaces(base)
     top_ids = {s.id for ss in by_storey.values() for s in ss}
@@ -175,7 +178,7 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
     storey_geo = {}
     old_ext = {}
     for s in base.shapes:
-        if s.type == ShapeType.EXTERIOR and s.active:
+        if s.type == ShapeType.EXTERIOR and (s.active or s.parent in made_ext):
             old_ext.setdefault(s.storey, []).append(s.id)
     for k, spaces in sorted(by_storey.items()):
         fps = {}
@@ -228,10 +231,10 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
     out = base.with_(shapes=tuple(shapes) + tuple(new_shapes))
     # openings
     walls = [w for _, w in runs_all]
-    openings = []
-    if cloud is not None and prm.detect_openings and walls and _has_detector():
-        openings = _detect(out, walls, cloud, prm)
-    openings += _rehome(old_openings, walls)
+    openings = _rehome(old_openings, walls, out)
+    if detect and walls and _has_detector():
+        # a user's door (or one kept from before) wins over a detection at its place
+        openings += [o for o in _detect(out, walls, cloud, prm) if not _overlaps(o, openings)]
     openings = [_with_spaces(o, out) for o in openings]
     kids = {}
     for o in openings:
@@ -283,8 +286,9 @@ def _detect(model: BuildingModel, walls: list[Shape], cloud, prm: ElementsParams
     return out
 
 
-def _rehome(openings: list[Shape], walls: list[Shape]) -> list[Shape]:
-    """Openings kept from before, each in the new wall that holds its centre."""
+def _rehome(openings: list[Shape], walls: list[Shape], model: BuildingModel) -> list[Shape]:
+    """Openings kept from before, each rebuilt in the new wall that holds its centre (its
+    box across the new wall's thickness, at its width, sill and height)."""
     out = []
     for o in openings:
         c = o.centroid
@@ -292,14 +296,68 @@ def _rehome(openings: list[Shape], walls: list[Shape]) -> list[Shape]:
         for w in walls:
             if w.storey != o.storey:
                 continue
-            d = Polygon(w.footprint()).distance(Point(c[:2])) if w.footprint() is not None else np.inf
+            d = Polygon(w.footprint()).distance(Point(c[:2]))
             if best is None or d < best[0]:
                 best = (d, w)
-        if best is not None and best[0] <= 0.3:
-            out.append(o.with_(parent=best[1].id))
-        else:
+        if best is None or best[0] > 0.3:
             log.warning("opening %s lies in no wall any more; dropped", o.id)
+            continue
+        w = best[1]
+        a, b = (np.asarray(p, float) for p in w.attributes["axis_line"])
+        d = (b - a) / max(float(np.linalg.norm(b - a)), 1e-12)
+        u = float(d @ (c[:2] - a))
+        width = float(o.attributes.get("width", np.sort(o.scope.size[:2])[1]))
+        lo, hi = o.bounds[:, 2]
+        floor = float(w.attributes.get("floor_z", w.bounds[0, 2]))
+        sill = float(o.attributes.get("sill", lo - floor))
+        height = float(o.attributes.get("height", hi - lo))
+        geo = opening_box(a, d, float(w.attributes["thickness"]), u, width, floor + sill, floor + sill + height)
+        out.append(o.with_(parent=w.id, storey=w.storey, geometry=geo, scope=None,
+                           attributes={**o.attributes, "width": width, "sill": sill, "height": height}))
     return out
+
+
+def opening_box(a: np.ndarray, d: np.ndarray, thickness: float, u: float, width: float, z0: float,
+                z1: float) -> Polyhedron:
+    """The box of an opening centred ``u`` metres along a wall axis (start ``a``, unit
+    direction ``d``), ``width`` along it, through the wall's ``thickness``, from ``z0`` to ``z1``."""
+    n = np.array([-d[1], d[0]]) * thickness / 2
+    p0, p1 = a + d * (u - width / 2), a + d * (u + width / 2)
+    return Polyhedron.prism(np.array([p0 - n, p1 - n, p1 + n, p0 + n]), z0, z1)
+
+
+def _overlaps(o: Shape, others: list[Shape]) -> bool:
+    """Whether an opening overlaps (in plan and height) an opening of ``others`` in its wall."""
+    ob = o.bounds
+    for q in others:
+        if q.parent != o.parent:
+            continue
+        qb = q.bounds
+        if np.all(ob[0] < qb[1]) and np.all(qb[0] < ob[1]):
+            return True
+    return False
+
+
+def _free_exterior_ids(model: BuildingModel, keep: list[Shape]):
+    """Rename exterior shapes not made here whose id is one this stage gives
+    (``exterior_s<k>``), so that the stage's exterior can take it."""
+    taken = {s.id for s in keep if s.type == ShapeType.EXTERIOR and not _made_here(s)
+             and s.id == f"exterior_s{s.storey}"}
+    if not taken:
+        return model, keep
+    ids = {s.id for s in model.shapes}
+    new = {}
+    for t in taken:
+        k, n = f"{t}_part", 0
+        while k in ids:
+            n += 1
+            k = f"{t}_part{n}"
+        new[t] = k
+    ren = (lambda x: new.get(x, x))
+    keep = [s.with_(id=ren(s.id), parent=None if s.parent is None else ren(s.parent),
+                    children=tuple(ren(c) for c in s.children)) for s in keep]
+    rel = tuple(Relation(r.kind, ren(r.a), ren(r.b), None if r.via is None else ren(r.via)) for r in model.relations)
+    return model.with_(relations=rel), keep
 
 
 def _with_spaces(o: Shape, model: BuildingModel) -> Shape:

@@ -299,13 +299,18 @@ def _join(runs: list, prm: WallRunParams) -> None:
     sin_min = math.sin(prm.min_join_angle)
     reach = prm.max_thickness
     ends = {}  # (run, end) -> new point
-    joins = []
+    joins = {}  # (run, end) -> (other run, where on it, axes' crossing)
+    if not runs:
+        return
+    tree = STRtree([LineString([r.a, r.b]) for r in runs])
     for i, r in enumerate(runs):
         for e in (0, 1):
             E = r.a if e == 0 else r.b
             out = -r.direction if e == 0 else r.direction
             best = None
-            for j, s in enumerate(runs):
+            near = tree.query(Point(E), predicate="dwithin", distance=2 * reach)
+            for j in sorted(int(x) for x in near):
+                s = runs[j]
                 if j == i:
                     continue
                 dj = s.direction
@@ -326,29 +331,24 @@ def _join(runs: list, prm: WallRunParams) -> None:
             s = runs[j]
             at_j = "ATSTART" if v <= reach and v < s.length / 2 else (
                 "ATEND" if v >= s.length - reach else "ATPATH")
-            joins.append((i, e, j, at_j, E + out * t))
-    # corners: both ends meet; the lower index goes through
+            joins[(i, e)] = (j, at_j, E + out * t)
+    # a corner when both ends pick each other (the lower index goes through), else the end
+    # stops at the other run's face (a T, or an end meeting a run that continues)
     at_name = ("ATSTART", "ATEND")
-    seen = set()
-    for i, e, j, at_j, X in joins:
+    for (i, e), (j, at_j, X) in sorted(joins.items()):
         r, s = runs[i], runs[j]
         out = -r.direction if e == 0 else r.direction
-        if at_j == "ATPATH":
+        ej = {"ATSTART": 0, "ATEND": 1}.get(at_j)
+        mutual = ej is not None and joins.get((j, ej), (None,))[0] == i
+        if not mutual:
             ends[(i, e)] = X - out * s.thickness / 2
-            r.joins.append((j, at_name[e], "ATPATH"))
+            r.joins.append((j, at_name[e], at_j))
             continue
-        key = tuple(sorted(((i, at_name[e]), (j, at_j))))
-        if key in seen:
-            continue
-        seen.add(key)
-        ej = 0 if at_j == "ATSTART" else 1
+        if i > j:
+            continue  # done from the other end
         out_j = -s.direction if ej == 0 else s.direction
-        if i < j:
-            ends[(i, e)] = X + out * s.thickness / 2
-            ends[(j, ej)] = X - out_j * r.thickness / 2
-        else:
-            ends[(i, e)] = X - out * s.thickness / 2
-            ends[(j, ej)] = X + out_j * r.thickness / 2
+        ends[(i, e)] = X + out * s.thickness / 2
+        ends[(j, ej)] = X - out_j * r.thickness / 2
         r.joins.append((j, at_name[e], at_j))
     for (i, e), X in ends.items():
         r = runs[i]

@@ -117,3 +117,25 @@ def test_two_storeys_share_the_slab_between_them():
     assert mid.attributes["thickness"] == pytest.approx(0.3, abs=1e-6) and mid.attributes["thickness_measured"]
     assert mid.bounds[0, 2] == pytest.approx(2.7) and mid.bounds[1, 2] == pytest.approx(3.0)
     assert len(e.of_type(ShapeType.EXTERIOR)) == 2
+
+
+def test_a_model_with_its_own_exterior_ids_and_detected_openings_rebuilds():
+    rooms = _model([_rect(0, 0, 4, 4), _rect(4.15, 0, 8.15, 4)])
+    ext = Shape("exterior_s0", ShapeType.EXTERIOR, Polyhedron.box((-2, -2, 0), (-1, -1, 2.8)), terminal=True)
+    m = building_elements(rooms.with_(shapes=rooms.shapes + (ext,)), params=NO_SCAN)
+    assert len(m.of_type(ShapeType.EXTERIOR)) == 1 and m["exterior_s0"].children == ("exterior_s0_part",)
+    assert not m["exterior_s0_part"].active
+    wall = next(w for w in m.walls if not w.attributes["external"])
+    # a detected door in the old wall, 0.1 m off its axis and too thin: rebuilt across the new wall
+    door = Shape("door_d", ShapeType.DOOR, Polyhedron.box((4.0, 1.5, 0.0), (4.1, 2.4, 2.1)), parent=wall.id,
+                 terminal=True, attributes={"width": 0.9, "height": 2.1, "sill": 0.0, "kind": "door",
+                                            "detected": True})
+    again = building_elements(m.with_(shapes=m.shapes + (door,)), params=NO_SCAN)
+    d = again["door_d"]
+    lo, hi = d.bounds
+    assert hi[0] - lo[0] == pytest.approx(0.15, abs=1e-6) and hi[1] - lo[1] == pytest.approx(0.9, abs=1e-6)
+    assert lo[0] == pytest.approx(4.0, abs=1e-6)
+    # twice more: still one exterior, the same parts
+    third = building_elements(again, params=NO_SCAN)
+    assert sorted(s.id for s in third.of_type(ShapeType.EXTERIOR, active=None)) == ["exterior_s0", "exterior_s0_part"]
+    assert "door_d" in third
