@@ -12,7 +12,17 @@ derives the topology from the space boundaries:
 * virtual boundaries (``IfcVirtualElement``) give relations without a wall or door.
 
 Shapes are vertical prisms (:meth:`Polyhedron.prism`) when the tessellation is one,
-otherwise triangle meshes. Files written by :func:`engine.ifc.write_ifc` come back in the
+otherwise triangle meshes. Doors and windows (ShapeType.DOOR / WINDOW) become the box of
+their opening in the wall they fill (``IfcRelFillsElement`` → ``IfcRelVoidsElement``; that
+wall is their ``parent``): ``OverallWidth`` along the wall axis × the wall thickness, from
+their lowest point up ``OverallHeight``; attributes ``width``, ``height``, ``sill`` (above
+the storey floor), ``kind`` ("door" / "window") and ``spaces`` (the two spaces on either
+side from the space boundaries, or by geometry where a boundary is missing; the outside is
+``"exterior_s<k>"`` or the storey's EXTERIOR shape). Walls get ``thickness`` (base
+quantities, material layers or geometry), ``height``, ``axis_line``, ``external``
+(``Pset_WallCommon.IsExternal``, else whether a space boundary of the wall is EXTERNAL) and
+``joins`` (``IfcRelConnectsPathElements``); slabs ``kind`` (floor / base / roof) and
+``thickness``. Files written by :func:`engine.ifc.write_ifc` come back in the
 model's own frame with their shape ids, supports and attributes; other files keep their
 world coordinates (minus a whole-metre offset when they are far from the origin).
 """
@@ -26,7 +36,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
-from shapely.geometry import Polygon
+from shapely.geometry import Point, Polygon
 from shapely.ops import unary_union
 
 from ..errors import FormatError, InputError, MissingDependencyError, is_valid_text
@@ -51,7 +61,8 @@ MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
 class IfcReadParams:
     """Parameters of :func:`read_ifc` (SI units)."""
 
-    element_classes: tuple = ("IfcWall", "IfcSlab", "IfcSpace", "IfcDoor", "IfcExternalSpatialElement")
+    element_classes: tuple = ("IfcWall", "IfcSlab", "IfcSpace", "IfcDoor", "IfcWindow",
+                              "IfcExternalSpatialElement")
     """IFC classes read (with their subclasses, e.g. IfcWallStandardCase)."""
     prism_tol: float = 1e-4
     """Height tolerance (m) and normal tolerance (|n_z| of vertical / 1 - |n_z| of horizontal
@@ -64,6 +75,9 @@ class IfcReadParams:
     """Tolerance (m) when a shape is put in a storey by its height (no containment found)."""
     threads: int = 2
     """Tessellation threads (booleans of walls with many openings dominate the reading time)."""
+    opening_side_reach: float = 0.5
+    """A door or window without a space boundary on one side of its wall gets the space
+    found within this distance (m) of the wall face there."""
 
 
 # --------------------------------------------------------------------------- entry points
@@ -92,7 +106,7 @@ def read_ifc(path: str | os.PathLike, *, params: Optional[IfcReadParams] = None,
     Returns
     -------
     BuildingModel
-        Shapes: WALL, SLAB, INTERIOR / EXTERIOR spaces, DOOR — geometry in metres, z up,
+        Shapes: WALL, SLAB, INTERIOR / EXTERIOR spaces, DOOR, WINDOW — geometry in metres, z up,
         ``storey`` = index into ``model.storeys`` (sorted by height). Relations from the
         space boundaries. ``transform``/``offset`` map back to the file's coordinates.
 
@@ -266,14 +280,16 @@ class _Reader:
             ids[e.id()] = shape.id
 
         shapes = self._hierarchy(shapes, ids, elements)
+        if not self.ours:
+            shapes = self._element_facts(shapes, ids, elements, info)
         st_objs = []
         for i, (z, s, elev, sp) in enumerate(info):
             ceiling = sp.get("CeilingZ")
             if ceiling is None:
-                tops = [sh.bounds[1, 2] for sh in shapes.values()
-                        if sh.storey == i and sh.type == ShapeType.INTERIOR]
-                if tops:
-                    ceiling = max(tops)
+                rooms = [sh for sh in shapes.values() if sh.storey == i and sh.type == ShapeType.INTERIOR]
+                if rooms:  # the top of most of the floor area (a stair well may reach the storey above)
+                    areas = [max(sh.geometry.plan_area_perimeter()[0], 1e-6) for sh in rooms]
+                    ceiling = _weighted_median([sh.bounds[1, 2] for sh in rooms], areas)
                 elif i + 1 < len(info):
                     ceiling = info[i + 1][0]
                 else:
@@ -346,7 +362,7 @@ class _Reader:
             nxt = self.ue.get_container(q)
             if nxt is None:
                 nxt = self.ue.get_aggregate(q)
-            if nxt is None and q.is_a("IfcDoor"):
+            if nxt is None and (q.is_a("IfcDoor") or q.is_a("IfcWindow")):
                 for rel in getattr(q, "FillsVoids", ()) or ():
                     op = rel.RelatingOpeningElement
                     for vrel in getattr(op, "VoidsElements", ()) or ():
@@ -362,6 +378,8 @@ class _Reader:
             kind = ShapeType.SLAB
         elif e.is_a("IfcDoor"):
             kind = ShapeType.DOOR
+        elif e.is_a("IfcWindow"):
+            kind = ShapeType.WINDOW
         elif e.is_a("IfcSpace"):
             kind = ShapeType.INTERIOR
             ext = getattr(e, "InteriorOrExteriorSpace", None) == "EXTERNAL" or \
@@ -385,7 +403,7 @@ class _Reader:
         if ps.get("StoreyIndex") is not None and int(ps["StoreyIndex"]) < 0:
             storey = -1
         attributes = dict(loads(ps.get("Attributes"), {}) or {})
-        if kind == ShapeType.DOOR:
+        if kind in (ShapeType.DOOR, ShapeType.WINDOW):
             if getattr(e, "OverallWidth", None):
                 attributes.setdefault("width", float(e.OverallWidth) * self.scale)
             if getattr(e, "OverallHeight", None):
@@ -419,12 +437,15 @@ class _Reader:
                 agg = self.ue.get_aggregate(e)
                 if agg is not None and agg.id() in ids:
                     parent[sid] = ids[agg.id()]
-            elif e.is_a("IfcDoor"):
+            elif e.is_a("IfcDoor") or e.is_a("IfcWindow"):
                 for rel in getattr(e, "FillsVoids", ()) or ():
                     for vrel in getattr(rel.RelatingOpeningElement, "VoidsElements", ()) or ():
                         w = vrel.RelatingBuildingElement
-                        if w.id() in ids:
-                            parent[sid] = ids[w.id()]
+                        parts = [w] + [x for r in getattr(w, "IsDecomposedBy", ()) or ()
+                                       for x in r.RelatedObjects]
+                        hit = [x for x in parts if x.id() in ids]  # an IfcRoof: the slab that is its part
+                        if hit:
+                            parent[sid] = ids[hit[0].id()]
         children = {}
         for c, pid in parent.items():
             children.setdefault(pid, []).append(c)
@@ -439,6 +460,138 @@ class _Reader:
                 changes["children"] = tuple(children[sid])
             out[sid] = s.with_(**changes) if changes else s
         return out
+
+    # ------------------------------------------------------------------ element facts
+    def _layer_thickness(self, e) -> Optional[float]:
+        """Total thickness (m) of the element's material layer set, None without one."""
+        try:
+            m = self.ue.get_material(e, should_skip_usage=True)
+        except Exception:  # odd material assignments: no layer thickness
+            return None
+        if m is None or not m.is_a("IfcMaterialLayerSet"):
+            return None
+        t = sum(float(x.LayerThickness or 0.0) for x in m.MaterialLayers or ()) * self.scale
+        return t if t > 0 else None
+
+    def _element_facts(self, shapes: dict, ids: dict, elements, info) -> dict:
+        """Attributes of the walls, slabs, doors and windows of a foreign file (module doc)."""
+        by_eid = {e.id(): e for e in elements}
+        bounds = {}
+        for b in self.f.by_type("IfcRelSpaceBoundary"):
+            sp, el = b.RelatingSpace, b.RelatedBuildingElement
+            if sp is not None and el is not None and sp.id() in ids and ids[sp.id()] in shapes:
+                io = str(getattr(b, "InternalOrExternalBoundary", "") or "").upper()
+                bounds.setdefault(el.id(), []).append((ids[sp.id()], io.startswith("EXTERNAL")))
+        joins = {}
+        for r in self.f.by_type("IfcRelConnectsPathElements"):
+            a, b = r.RelatingElement, r.RelatedElement
+            if a is None or b is None or a.id() not in ids or b.id() not in ids:
+                continue
+            ta = str(r.RelatingConnectionType or "NOTDEFINED")
+            tb = str(r.RelatedConnectionType or "NOTDEFINED")
+            joins.setdefault(ids[a.id()], []).append({"wall": ids[b.id()], "at": ta, "other_at": tb})
+            joins.setdefault(ids[b.id()], []).append({"wall": ids[a.id()], "at": tb, "other_at": ta})
+        out = dict(shapes)
+        for eid, sid in ids.items():
+            e, s = by_eid[eid], shapes[sid]
+            att = dict(s.attributes)
+            lo, hi = s.bounds
+            if s.type == ShapeType.WALL:
+                sc = s.scope
+                att.setdefault("thickness", self._layer_thickness(e) or float(min(sc.size[0], sc.size[1])))
+                att["height"] = float(hi[2] - lo[2])
+                p0 = sc.origin + sc.axes[1] * sc.size[1] / 2
+                p1 = p0 + sc.axes[0] * sc.size[0]
+                if e.ObjectPlacement is not None:  # start -> end along the wall's own x axis
+                    xdir = self.up.get_local_placement(e.ObjectPlacement)[:2, 0]
+                    if float(xdir @ sc.axes[0, :2]) < 0:
+                        p0, p1 = p1, p0
+                att["axis_line"] = [[float(p0[0]), float(p0[1])], [float(p1[0]), float(p1[1])]]
+                ext = self._pset(e, "Pset_WallCommon").get("IsExternal")
+                if ext is None and eid in bounds:
+                    ext = any(x for _, x in bounds[eid])
+                if ext is not None:
+                    att["external"] = bool(ext)
+                att["joins"] = joins.get(sid, [])
+            elif s.type == ShapeType.SLAB:
+                agg = self.ue.get_aggregate(e)
+                pt = str(getattr(e, "PredefinedType", "") or "").upper()
+                roof = pt == "ROOF" or (agg is not None and agg.is_a("IfcRoof"))
+                att.setdefault("kind", "roof" if roof else "base" if pt == "BASESLAB" else "floor")
+                att.setdefault("thickness", self._layer_thickness(e) or float(hi[2] - lo[2]))
+            out[sid] = s.with_(attributes=att)
+        plans = {sid: _plan_polygon(s) for sid, s in shapes.items() if s.is_space}
+        for eid, sid in ids.items():
+            s = out[sid]
+            if s.type in (ShapeType.DOOR, ShapeType.WINDOW):
+                out[sid] = self._opening(by_eid[eid], s, out, plans, bounds.get(eid, []), info)
+        return out
+
+    def _opening(self, e, s: Shape, shapes: dict, plans: dict, bounds: list, info) -> Shape:
+        """A door or window as its opening box in the host wall, with width, height, sill,
+        kind and the spaces on either side."""
+        att = dict(s.attributes)
+        v = s.geometry.vertices
+        z0, z1 = float(v[:, 2].min()), float(v[:, 2].max())
+        host = shapes.get(s.parent)
+        in_wall = host is not None and host.type == ShapeType.WALL
+        sc = host.scope if in_wall else s.scope
+        u, n = sc.axes[0, :2], sc.axes[1, :2]
+        pu = v[:, :2] @ u
+        width = float(att.get("width") or (pu.max() - pu.min()))
+        height = float(att.get("height") or (z1 - z0))
+        vn0 = float(sc.origin[:2] @ n)
+        vn1 = vn0 + float(sc.size[1])
+        cu = float(pu.max() + pu.min()) / 2
+        if in_wall:
+            ring = [u * a + n * b for a, b in ((cu - width / 2, vn0), (cu + width / 2, vn0),
+                                               (cu + width / 2, vn1), (cu - width / 2, vn1))]
+            geom = Polyhedron.prism(ring, z0, z0 + height)
+        else:  # a roof light (in a slab) or an opening in nothing: its own box
+            corners = ((0, 0), (sc.size[0], 0), (sc.size[0], sc.size[1]), (0, sc.size[1]))
+            ring = [sc.origin[:2] + u * a + n * b for a, b in corners]
+            geom = Polyhedron.prism(ring, z0, z1)
+        floor = info[s.storey][0] if 0 <= s.storey < len(info) else 0.0
+        att.update(width=width, height=height, sill=z0 - floor,
+                   kind="window" if s.type == ShapeType.WINDOW else "door")
+        outside = next((x.id for x in shapes.values()
+                        if x.type == ShapeType.EXTERIOR and x.storey == s.storey), f"exterior_s{s.storey}")
+        external = any(x for _, x in bounds) or (in_wall and bool(host.attributes.get("external")))
+        centre = u * cu + n * (vn0 + vn1) / 2
+        zmid = z0 + min(height, z1 - z0) / 2
+
+        def near(sid, probe):
+            sh, pl = shapes[sid], plans.get(sid)
+            if pl is None or not sh.bounds[0, 2] - 0.5 < zmid < sh.bounds[1, 2] + 0.5:
+                return np.inf
+            return float(pl.distance(Point(probe)))
+
+        if in_wall:
+            reach = (vn1 - vn0) / 2 + self.params.opening_side_reach
+            probes = [centre + n * (vn1 - vn0) / 2, centre - n * (vn1 - vn0) / 2]
+
+            def pick(cands, k):
+                d = {sid: near(sid, probes[k]) for sid in cands}
+                d = {sid: x for sid, x in d.items() if x <= reach and x <= near(sid, probes[1 - k])}
+                return min(d, key=d.get) if d else None
+
+            named = list(dict.fromkeys(sid for sid, _ in bounds))
+            found = [pick(named, 0), pick(named, 1)]
+            if found == [None, None] or not external:  # a missing boundary: the space by geometry
+                rooms = [sid for sid, sh in shapes.items() if sh.type == ShapeType.INTERIOR]
+                found = [f if f is not None else pick(rooms, k) for k, f in enumerate(found)]
+            if found[0] is not None and found[0] == found[1]:
+                found[1] = None
+            sides = [x for x in found if x is not None]
+            if len(sides) < 2 and external:
+                sides.append(outside)
+        else:
+            below = [sid for sid, pl in plans.items() if shapes[sid].type == ShapeType.INTERIOR
+                     and pl.contains(Point(centre))
+                     and shapes[sid].bounds[0, 2] < z0 <= shapes[sid].bounds[1, 2] + 0.5]
+            sides = below[:1] + [outside]
+        att["spaces"] = sides
+        return s.with_(geometry=geom, scope=None, attributes=att)
 
     # ------------------------------------------------------------------ topology
     def _relations(self, ids: dict, shapes: dict) -> list:
@@ -460,6 +613,8 @@ class _Reader:
                 via = None
             elif el.is_a("IfcDoor"):
                 kinds, via = ("connectivity",), ids.get(eid)
+            elif el.is_a("IfcWindow"):  # a window joins no spaces
+                continue
             else:
                 kinds, via = ("adjacency",), ids.get(eid)
                 if via is None:  # an element we did not read (a column, a window, ...)
@@ -495,6 +650,23 @@ def _opposite_sides(wall: Shape, a: Shape, b: Shape) -> bool:
     sa = float((a.centroid - c) @ n)
     sb = float((b.centroid - c) @ n)
     return sa * sb < 0
+
+
+def _weighted_median(values, weights) -> float:
+    """The value at half of the total weight (values sorted; the upper one at a tie)."""
+    order = np.argsort(values, kind="stable")
+    w = np.cumsum(np.asarray(weights, dtype=np.float64)[order])
+    return float(np.asarray(values, dtype=np.float64)[order][int(np.searchsorted(w, w[-1] / 2))])
+
+
+def _plan_polygon(s: Shape):
+    """The shape's plan outline: its prism footprint, else the union of its projected triangles."""
+    fp = s.footprint()
+    if fp is not None:
+        return Polygon(fp)
+    v, tri = s.geometry.triangles()
+    parts = [Polygon(v[t, :2]) for t in tri]
+    return unary_union([p for p in parts if p.area > 1e-9]).buffer(0)
 
 
 # --------------------------------------------------------------------------- meshes
