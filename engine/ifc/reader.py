@@ -230,6 +230,7 @@ class _Reader:
                 elements.extend(f.by_type(cls))
             except RuntimeError:  # class not in this schema (IfcExternalSpatialElement in IFC2X3)
                 continue
+        elements += _doorless_openings(f)
         elements = list({e.id(): e for e in elements}.values())
         meshes = self._tessellate(elements)
         self.p(0.8, "topology")
@@ -367,6 +368,9 @@ class _Reader:
                     op = rel.RelatingOpeningElement
                     for vrel in getattr(op, "VoidsElements", ()) or ():
                         nxt = vrel.RelatingBuildingElement
+            if nxt is None and q.is_a("IfcOpeningElement"):
+                for vrel in getattr(q, "VoidsElements", ()) or ():
+                    nxt = vrel.RelatingBuildingElement
             q = nxt
         return None
 
@@ -380,6 +384,8 @@ class _Reader:
             kind = ShapeType.DOOR
         elif e.is_a("IfcWindow"):
             kind = ShapeType.WINDOW
+        elif e.is_a("IfcOpeningElement"):  # a doorless opening (_doorless_openings)
+            kind = ShapeType.DOOR
         elif e.is_a("IfcSpace"):
             kind = ShapeType.INTERIOR
             ext = getattr(e, "InteriorOrExteriorSpace", None) == "EXTERNAL" or \
@@ -403,6 +409,8 @@ class _Reader:
         if ps.get("StoreyIndex") is not None and int(ps["StoreyIndex"]) < 0:
             storey = -1
         attributes = dict(loads(ps.get("Attributes"), {}) or {})
+        if e.is_a("IfcOpeningElement"):
+            attributes.setdefault("kind", "opening")
         if kind in (ShapeType.DOOR, ShapeType.WINDOW):
             if getattr(e, "OverallWidth", None):
                 attributes.setdefault("width", float(e.OverallWidth) * self.scale)
@@ -437,9 +445,11 @@ class _Reader:
                 agg = self.ue.get_aggregate(e)
                 if agg is not None and agg.id() in ids:
                     parent[sid] = ids[agg.id()]
-            elif e.is_a("IfcDoor") or e.is_a("IfcWindow"):
-                for rel in getattr(e, "FillsVoids", ()) or ():
-                    for vrel in getattr(rel.RelatingOpeningElement, "VoidsElements", ()) or ():
+            elif e.is_a("IfcDoor") or e.is_a("IfcWindow") or e.is_a("IfcOpeningElement"):
+                voided = [e] if e.is_a("IfcOpeningElement") else \
+                    [rel.RelatingOpeningElement for rel in getattr(e, "FillsVoids", ()) or ()]
+                for op in voided:
+                    for vrel in getattr(op, "VoidsElements", ()) or ():
                         w = vrel.RelatingBuildingElement
                         parts = [w] + [x for r in getattr(w, "IsDecomposedBy", ()) or ()
                                        for x in r.RelatedObjects]
@@ -553,7 +563,8 @@ class _Reader:
             geom = Polyhedron.prism(ring, z0, z1)
         floor = info[s.storey][0] if 0 <= s.storey < len(info) else 0.0
         att.update(width=width, height=height, sill=z0 - floor,
-                   kind="window" if s.type == ShapeType.WINDOW else "door")
+                   kind="window" if s.type == ShapeType.WINDOW else "opening" if e.is_a("IfcOpeningElement")
+                   else "door")
         outside = next((x.id for x in shapes.values()
                         if x.type == ShapeType.EXTERIOR and x.storey == s.storey), f"exterior_s{s.storey}")
         external = any(x for _, x in bounds) or (in_wall and bool(host.attributes.get("external")))
@@ -611,7 +622,7 @@ class _Reader:
                 kinds = self._pset(el, PSET_SHAPE).get("RelationKinds") or "adjacency,connectivity"
                 kinds = kinds.split(",")
                 via = None
-            elif el.is_a("IfcDoor"):
+            elif el.is_a("IfcDoor") or el.is_a("IfcOpeningElement"):
                 kinds, via = ("connectivity",), ids.get(eid)
             elif el.is_a("IfcWindow"):  # a window joins no spaces
                 continue
@@ -640,6 +651,18 @@ class _Reader:
                     if k:
                         rel.append(Relation(k.strip(), a, b, via))
         return rel
+
+
+def _doorless_openings(f) -> list:
+    """Openings that void a wall and hold no door or window: doorless passages."""
+    out = []
+    for op in f.by_type("IfcOpeningElement"):
+        if getattr(op, "HasFillings", None) or str(getattr(op, "PredefinedType", "") or "").upper() == "RECESS":
+            continue
+        if any(v.RelatingBuildingElement is not None and v.RelatingBuildingElement.is_a("IfcWall")
+               for v in getattr(op, "VoidsElements", ()) or ()):
+            out.append(op)
+    return out
 
 
 def _opposite_sides(wall: Shape, a: Shape, b: Shape) -> bool:

@@ -314,19 +314,21 @@ def test_reads_back_and_is_reproducible(written, tmp_path):
     m, path, _ = written
     r = read_ifc(path)
     assert {s.id for s in r.walls} == {s.id for s in m.walls}
-    assert {s.id for s in r.doors} >= {"d1", "d2"}  # d3 is an IfcOpeningElement (see the report)
+    assert {s.id for s in r.doors} == {"d1", "d2", "d3"}  # d3: an IfcOpeningElement without a filling
+    assert r["d3"].attributes["kind"] == "opening" and r["d3"].parent == "w1"
     assert {s.id for s in r.slabs} == {"floor", "roof"}
     assert [s.id for s in r.shapes if s.type.value == "exterior"] == ["exterior_s0"]
     for s in r.walls:
         assert s.attributes["thickness"] == pytest.approx(m[s.id].attributes["thickness"])
         assert np.allclose(s.bounds, m[s.id].bounds, atol=1e-6)
     want = {("adjacency", frozenset(("A", "B")), "w1"), ("connectivity", frozenset(("A", "B")), "d1"),
+            ("connectivity", frozenset(("A", "B")), "d3"),
             ("connectivity", frozenset(("B", "exterior_s0")), "d2")}
     want |= {("adjacency", frozenset((a, "exterior_s0")), w) for a, w in (
         ("A", "wSA"), ("B", "wSB"), ("A", "wNA"), ("A", "wW"), ("B", "wE"), ("B", "wNB"))}
     got = {(x.kind, frozenset((x.a, x.b)), x.via) for x in r.relations}
     assert want <= got
-    assert not [g for g in got - want if g[2] in {s.id for s in m.walls} | {"d1", "d2", "win1", "win2"}]
+    assert not [g for g in got - want if g[2] in {s.id for s in m.walls} | {"d1", "d2", "d3", "win1", "win2"}]
     # the same model twice: the same file (apart from the header time stamp)
     a = build_ifc(m).to_string()
     b = build_ifc(m).to_string()
