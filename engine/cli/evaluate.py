@@ -14,6 +14,7 @@ from .. import io as scan_io
 from ..errors import InputError
 from ..evaluation.loading import load_model
 from ..evaluation.metrics import DEFAULT_BUFFERS, EvaluationParams, evaluate
+from ..evaluation.elements import evaluate_elements
 from ..evaluation.report import write_evaluation_outputs
 from ..evaluation.visibility import VisibilityParams, annotate_visibility
 from .console import ConsoleProgress
@@ -74,23 +75,37 @@ def cmd_evaluate(args) -> int:
     res = evaluate(source, reference, params, visible=visible, progress=bar)
     bar.close()
     title = f"{os.path.basename(args.source)} vs {os.path.basename(args.reference)}"
-    paths = write_evaluation_outputs(res, args.out, title=title,
+    elements = evaluate_elements(source, reference)
+    paths = write_evaluation_outputs(res, args.out, title=title, elements=elements,
                                      extra={"source": os.fspath(args.source), "reference": os.fspath(args.reference)})
     c = res.curves["all"]
     payload = {"outputs": paths, "buffers_m": res.buffers.tolist(),
                "completeness": [None if not np.isfinite(x) else float(x) for x in c["completeness"]],
                "correctness": [None if not np.isfinite(x) else float(x) for x in c["correctness"]],
                "accuracy_m": [None if not np.isfinite(x) else float(x) for x in c["accuracy"]],
-               "missing": res.missing, "redundant": res.redundant}
+               "missing": res.missing, "redundant": res.redundant, "elements": elements}
     lines = [f"{'b (cm)':>7} {'compl.':>7} {'corr.':>7} {'acc. (cm)':>9}"]
     for i, b in enumerate(res.buffers):
         acc = c["accuracy"][i]
         lines.append(f"{b * 100:7.1f} {c['completeness'][i]:7.3f} {c['correctness'][i]:7.3f} "
                      f"{(acc * 100 if np.isfinite(acc) else float('nan')):9.2f}")
     lines.append(f"missing reference surfaces: {len(res.missing)}; redundant source surfaces: {len(res.redundant)}")
+    lines.extend(_element_lines(elements))
     lines.append(f"written to {args.out}")
     if getattr(args, "json", False):
         print(json.dumps(payload, indent=2))
     elif not getattr(args, "quiet", False):
         print("\n".join(lines))
     return 0
+
+
+def _element_lines(e: dict) -> list:
+    """Doors, windows, rooms, walls and the connectivity graph in a few lines."""
+    def pr(d):
+        f = (lambda x: "–" if x is None else f"{x:.2f}")
+        return f"{d['matched']}/{d['true']} found ({d['found']} in the model), precision {f(d['precision'])}, " \
+               f"recall {f(d['recall'])}"
+    c = e["connectivity"]
+    return [f"doors: {pr(e['doors'])}", f"windows: {pr(e['windows'])}",
+            f"rooms: {e['spaces']['model']} (reference {e['spaces']['truth']}); walls: {e['walls']['model']} "
+            f"(reference runs {e['walls']['truth_runs']}); door graph {'equal' if c['equal'] else 'differs'}"]

@@ -52,6 +52,10 @@ def test_evaluate_cli(tmp_path, capsys):
         assert os.path.getsize(out / name) > 0
     d = json.load(open(out / "evaluation.json"))
     assert d["source"] == str(src)
+    # element scores beside the surface curves: the same two rooms, no doors in either
+    el = json.load(open(out / "elements.json"))
+    assert el == d["elements"] == payload["elements"]
+    assert (el["spaces"]["model"], el["spaces"]["truth"], el["spaces"]["matched"]) == (2, 2, 2)
     walls = np.array(d["curves"]["wall"]["completeness"])
     assert walls[0] <= 0.45 and walls[-1] >= 0.97
     # walls only, solid-wall option, custom buffers
