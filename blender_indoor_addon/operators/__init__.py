@@ -9,12 +9,12 @@ scene settings (``scene.indoor``) that the panels show.
 
 This index re-exports the operators of its modules: :mod:`.scan` (Import scan, Export
 IFC), :mod:`.reconstruction` (Reconstruct, Cancel, Load / Save parameters), :mod:`.review`
-(Reclassify, Insert door, Revert, graphs, shortest path; :mod:`.elements` has their edits of
-models with building elements), :mod:`.analysis` (Detect changes, Evaluate).
+(Reclassify, Insert door, Revert, graphs, shortest path; their edits of models with building
+elements are the engine's :mod:`engine.topology.elements`), :mod:`.analysis` (Detect changes, Evaluate).
 """
 from __future__ import annotations
 
-from . import analysis, common, elements, engine_call, reconstruction, review, scan
+from . import analysis, common, engine_call, reconstruction, review, scan
 from .analysis import INDOOR_OT_detect_changes, INDOOR_OT_evaluate
 from .engine_call import EngineCall, report_failure
 from .reconstruction import (INDOOR_OT_cancel_reconstruct, INDOOR_OT_load_parameters, INDOOR_OT_reconstruct,
@@ -25,7 +25,7 @@ from .review import (INDOOR_OT_insert_door, INDOOR_OT_reclassify, INDOOR_OT_reve
 from .scan import (SCAN_EXTENSIONS, INDOOR_OT_export_ifc, INDOOR_OT_import_scan, bonsai_available,
                    menu_export, menu_import)
 
-__all__ = ["analysis", "common", "elements", "engine_call", "reconstruction", "review", "scan", "EngineCall",
+__all__ = ["analysis", "common", "engine_call", "reconstruction", "review", "scan", "EngineCall",
            "report_failure", "INDOOR_OT_import_scan", "INDOOR_OT_reconstruct", "INDOOR_OT_cancel_reconstruct",
            "INDOOR_OT_load_parameters", "INDOOR_OT_save_parameters", "INDOOR_OT_reclassify",
            "INDOOR_OT_insert_door", "INDOOR_OT_revert_edit", "INDOOR_OT_show_graph",

@@ -14,7 +14,7 @@ from ...engine.topology import describe_path, insert_door, reclassify, shortest_
 from .. import bridge
 from ..props import EDIT_TYPE_ITEMS, POSITION_ITEMS
 from .common import has_model, show_model_change, stored_or_report
-from .elements import (SNAP_DISTANCE, has_elements, insert_wall_door, made_by_elements,
+from ...engine.topology.elements import (SNAP_DISTANCE, has_elements, insert_wall_door, made_by_elements,
                        reclassify_with_elements)
 from .engine_call import engine_call
 

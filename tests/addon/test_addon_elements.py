@@ -73,7 +73,7 @@ def _select(*objs):
 
 
 def _frame(addon, model, wall_id):
-    return addon.operators.elements.wall_frame(model, model[wall_id])
+    return bu.engine_module("topology.elements").wall_frame(model, model[wall_id])
 
 
 def _scene_point(model, p):
@@ -287,7 +287,7 @@ def test_a_bug_in_the_rebuild_leaves_the_scene(element_scene, addon, elements, m
     def boom(*a, **k):
         raise ZeroDivisionError("float division by zero")
 
-    monkeypatch.setattr(addon.operators.elements, "building_elements", boom)
+    monkeypatch.setattr(bu.engine_module("topology.elements"), "building_elements", boom)
     with pytest.raises(RuntimeError) as e:
         bpy.ops.indoor.insert_door(position_mode="VALUE", position=1.0)
     assert "internal error: ZeroDivisionError" in str(e.value) and "Traceback" not in str(e.value)
@@ -362,7 +362,7 @@ def test_reclassify_on_a_reconstruction_keeps_openings_in_walls(addon, reconstru
     model = reconstructed
     scene = bu.fresh_scene()
     addon.bridge.model_to_objects(model, scene=scene)
-    assert addon.operators.elements.has_elements(model) and len(model.doors) >= 3
+    assert bu.engine_module("topology.elements").has_elements(model) and len(model.doors) >= 3
     # a room with a door to another room (not only to the outside)
     ids = {s.id for s in model.spaces}
     door = next(d for d in model.doors if set(d.attributes["spaces"]) <= ids)

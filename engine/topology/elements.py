@@ -1,6 +1,6 @@
 """Edits of a model with building elements (wall runs, openings, slabs, one exterior per storey).
 
-The Review operators call these instead of the bare topology rules when the model was
+The Blender add-on's Review operators call these instead of the bare topology rules when the model was
 built by the elements stage (:func:`engine.elements.build.building_elements`): after the
 edit the walls, slabs and exteriors are rebuilt from the spaces and the openings move to
 the new wall that holds them, so walls stay joined and openings stay in their walls.
@@ -14,10 +14,10 @@ from typing import Optional
 
 import numpy as np
 
-from ...engine.elements.build import ELEMENT_LOG, building_elements
-from ...engine.errors import InputError, ReconstructionError
-from ...engine.model import BuildingModel, Polyhedron, Shape, ShapeType
-from ...engine.topology import reclassify
+from ..elements.build import ELEMENT_LOG, building_elements
+from ..errors import InputError, ReconstructionError
+from ..model import BuildingModel, Polyhedron, Shape, ShapeType
+from .edit import reclassify
 
 __all__ = ["SNAP_DISTANCE", "made_by_elements", "has_elements", "rebuild_elements", "grammar_ids",
            "ReclassifyResult", "reclassify_with_elements", "DoorResult", "insert_wall_door", "wall_frame"]
@@ -44,18 +44,8 @@ def has_elements(model: BuildingModel) -> bool:
 
 def rebuild_elements(model: BuildingModel) -> BuildingModel:
     """:func:`building_elements` without a scan: walls, slabs, exteriors rebuilt from the spaces,
-    every opening kept and re-parented to the wall run that holds it.
-
-    The stage re-detects the openings it found itself (``"detected": True``) only from a
-    scan; without one it would drop them, so they pass through as kept openings and get
-    their ``"detected"`` flag back afterwards.
-    """
-    detected = [s for s in model.shapes if s.type in _OPENINGS and s.attributes.get("detected")]
-    if detected:
-        model = model.replace_shapes(*[_flag(s, False) for s in detected])
-    out = building_elements(model)
-    back = [_flag(out[s.id], True) for s in detected if s.id in out]
-    return out.replace_shapes(*back) if back else out
+    every opening kept and re-parented to the wall run that holds it."""
+    return building_elements(model)
 
 
 def _flag(s: Shape, detected: bool) -> Shape:
