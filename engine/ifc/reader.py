@@ -363,13 +363,9 @@ class _Reader:
             nxt = self.ue.get_container(q)
             if nxt is None:
                 nxt = self.ue.get_aggregate(q)
-            if nxt is None and (q.is_a("IfcDoor") or q.is_a("IfcWindow")):
-                for rel in getattr(q, "FillsVoids", ()) or ():
-                    op = rel.RelatingOpeningElement
-                    for vrel in getattr(op, "VoidsElements", ()) or ():
-                        nxt = vrel.RelatingBuildingElement
-            if nxt is None and q.is_a("IfcOpeningElement"):
-                for vrel in getattr(q, "VoidsElements", ()) or ():
+            if nxt is None and (q.is_a("IfcDoor") or q.is_a("IfcWindow") or q.is_a("IfcOpeningElement")):
+                ops = [q] if q.is_a("IfcOpeningElement") else [r.RelatingOpeningElement for r in q.FillsVoids or ()]
+                for vrel in (v for op in ops for v in getattr(op, "VoidsElements", ()) or ()):
                     nxt = vrel.RelatingBuildingElement
             q = nxt
         return None
@@ -411,7 +407,7 @@ class _Reader:
         attributes = dict(loads(ps.get("Attributes"), {}) or {})
         if e.is_a("IfcOpeningElement"):
             attributes.setdefault("kind", "opening")
-        if kind in (ShapeType.DOOR, ShapeType.WINDOW):
+        elif kind in (ShapeType.DOOR, ShapeType.WINDOW):
             if getattr(e, "OverallWidth", None):
                 attributes.setdefault("width", float(e.OverallWidth) * self.scale)
             if getattr(e, "OverallHeight", None):
