@@ -22,6 +22,7 @@ from shapely.ops import unary_union
 
 from ..model import BuildingModel, Polyhedron, Relation, Shape, ShapeType
 from .params import ElementsParams
+from .thickness import PointGrid, reveal_depth
 from .walls import WallRun, _polygons, space_footprint, wall_runs
 
 __all__ = ["ElementsParams", "building_elements", "ELEMENT_LOG"]
@@ -180,44 +181,33 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
     for s in base.shapes:
         if s.type == ShapeType.EXTERIOR and (s.active or s.parent in made_ext):
             old_ext.setdefault(s.storey, []).append(s.id)
+    footprints = {}
     for k, spaces in sorted(by_storey.items()):
         fps = {}
         for s in spaces:
             g = space_footprint(base, s)
             if g is not None and not g.is_empty:
                 fps[s.id] = g
-        if not fps:
-            continue
-        runs, open_pairs = wall_runs(fps, k, prm.walls)
-        z0 = min(float(s.bounds[0, 2]) for s in spaces)
-        z1 = max(float(s.bounds[1, 2]) for s in spaces)
-        ext_id = f"exterior_s{k}"
-        walls = []
-        for i, r in enumerate(runs):
-            side_ids = [x for sp in r.spans for x in sp[2:] if x is not None]
-            lo = min((float(base[x].bounds[0, 2]) for x in side_ids), default=z0)
-            hi = max((float(base[x].bounds[1, 2]) for x in side_ids), default=z1)
-            walls.append(_wall_shape(r, i, lo, hi, ext_id))
-        id_of = {i: w.id for i, w in enumerate(walls)}
-        for i, (r, w) in enumerate(zip(runs, walls)):
-            joins = [{"wall": id_of[j], "at": at, "other_at": other} for j, at, other in r.joins]
-            w.attributes["joins"] = joins
-        outline = unary_union(list(fps.values()) + [Polygon(w.footprint()) for w in walls if w.footprint() is not None])
-        outline = outline.buffer(0.02, join_style="mitre").buffer(-0.02, join_style="mitre")
-        storey_geo[k] = (outline, spaces, fps)
-        ext = _exterior_shape(k, outline, z0, z1, old_ext.get(k, []))
+        if fps:
+            footprints[k] = fps
+    per_storey = {k: _storey_walls(base, k, by_storey[k], fps, prm, old_ext.get(k, []))
+                  for k, fps in footprints.items()}
+    xyz_model = _model_points(model, cloud) if detect and _has_detector() else None
+    detected = []
+    if xyz_model is not None:
+        walls = [w for st in per_storey.values() for w in st[0]]
+        base_ext = base.with_(shapes=base.shapes + tuple(st[1] for st in per_storey.values()))
+        detected = _detect(base_ext, walls, xyz_model, cloud, prm)
+        # exterior walls measured through their openings: the runs again with that thickness
+        measured = _measured_exteriors(walls, detected, xyz_model, prm)
+        for k, regions in measured.items():
+            per_storey[k] = _storey_walls(base, k, by_storey[k], footprints[k], prm, old_ext.get(k, []), regions)
+    for k, (walls, ext, rels, geo) in per_storey.items():
         new_shapes.extend(walls)
         new_shapes.append(ext)
-        runs_all.extend(zip(runs, walls))
-        seen = set()
-        for w in walls:
-            for _, _, a, b in w.attributes["side_spans"]:
-                key = (min(a, b), max(a, b), w.id)
-                if a != b and key not in seen:
-                    seen.add(key)
-                    relations.append(Relation("adjacency", key[0], key[1], w.id))
-        for a, b in sorted(open_pairs):
-            relations.append(Relation("adjacency", a, b))
+        runs_all.extend((None, w) for w in walls)
+        relations.extend(rels)
+        storey_geo[k] = geo
     new_shapes.extend(_slabs(storey_geo, base, prm.slabs))
     # the method's walls and exteriors become parts
     ext_parent = {sid: f"exterior_s{k}" for k, ids in old_ext.items() for sid in ids if k in storey_geo}
@@ -232,9 +222,8 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
     # openings
     walls = [w for _, w in runs_all]
     openings = _rehome(old_openings, walls, out)
-    if detect and walls and _has_detector():
-        # a user's door (or one kept from before) wins over a detection at its place
-        openings += [o for o in _detect(out, walls, cloud, prm) if not _overlaps(o, openings)]
+    # a user's door (or one kept from before) wins over a detection at its place
+    openings += [o for o in _rehome(detected, walls, out) if not _overlaps(o, openings)]
     openings = [_with_spaces(o, out) for o in openings]
     kids = {}
     for o in openings:
@@ -260,16 +249,72 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
                                                prov.source, prov.software))
 
 
+def _storey_walls(base: BuildingModel, k: int, spaces: list, fps: dict, prm: ElementsParams, old_ext: list,
+                  measured=None):
+    """One storey's wall shapes, exterior, relations and (outline, spaces, footprints)."""
+    runs, open_pairs = wall_runs(fps, k, prm.walls, measured)
+    z0 = min(float(s.bounds[0, 2]) for s in spaces)
+    z1 = max(float(s.bounds[1, 2]) for s in spaces)
+    ext_id = f"exterior_s{k}"
+    walls = []
+    for i, r in enumerate(runs):
+        side_ids = [x for sp in r.spans for x in sp[2:] if x is not None]
+        lo = min((float(base[x].bounds[0, 2]) for x in side_ids), default=z0)
+        hi = max((float(base[x].bounds[1, 2]) for x in side_ids), default=z1)
+        walls.append(_wall_shape(r, i, lo, hi, ext_id))
+    id_of = {i: w.id for i, w in enumerate(walls)}
+    for r, w in zip(runs, walls):
+        w.attributes["joins"] = [{"wall": id_of[j], "at": at, "other_at": other} for j, at, other in r.joins]
+    outline = unary_union(list(fps.values()) + [Polygon(w.footprint()) for w in walls])
+    outline = outline.buffer(0.02, join_style="mitre").buffer(-0.02, join_style="mitre")
+    ext = _exterior_shape(k, outline, z0, z1, old_ext)
+    relations, seen = [], set()
+    for w in walls:
+        for _, _, a, b in w.attributes["side_spans"]:
+            key = (min(a, b), max(a, b), w.id)
+            if a != b and key not in seen:
+                seen.add(key)
+                relations.append(Relation("adjacency", key[0], key[1], w.id))
+    for a, b in sorted(open_pairs):
+        relations.append(Relation("adjacency", a, b))
+    return walls, ext, relations, (outline, spaces, fps)
+
+
+def _model_points(model: BuildingModel, cloud) -> np.ndarray:
+    T = np.linalg.inv(model.transform)
+    return cloud.xyz @ T[:3, :3].T + T[:3, 3]
+
+
+def _measured_exteriors(walls: list[Shape], openings: list[Shape], xyz: np.ndarray, prm: ElementsParams) -> dict:
+    """{storey: [(region, thickness)]}: exterior walls whose openings' reveals give a thickness
+    other than the default (by more than 2 cm); the region is the wall's footprint."""
+    by_wall = {}
+    for o in openings:
+        by_wall.setdefault(o.parent, []).append(o)
+    ext = [w for w in walls if w.attributes.get("external") and w.id in by_wall]
+    if not ext:
+        return {}
+    grid = PointGrid(xyz)
+    out = {}
+    for w in ext:
+        left, right = w.attributes["sides"]
+        inner = 1 if not str(left).startswith("exterior_s") else -1
+        t = reveal_depth(w, by_wall[w.id], grid, inner, prm.walls.max_thickness)
+        if t is None or abs(t - prm.walls.exterior_thickness) <= 0.02:
+            continue
+        out.setdefault(w.storey, []).append((Polygon(w.footprint()).buffer(0.05), t))
+    return out
+
+
 def _has_detector() -> bool:  # TODO(lead): remove once engine/elements/openings.py lands
     import importlib.util
     return importlib.util.find_spec("engine.elements.openings") is not None
 
 
-def _detect(model: BuildingModel, walls: list[Shape], cloud, prm: ElementsParams) -> list[Shape]:
+def _detect(model: BuildingModel, walls: list[Shape], xyz: np.ndarray, cloud, prm: ElementsParams) -> list[Shape]:
     from .openings import detect_openings
 
     T = np.linalg.inv(model.transform)
-    xyz = cloud.xyz @ T[:3, :3].T + T[:3, 3]
     normals = None if cloud.normals is None else cloud.normals @ T[:3, :3].T
     sp = cloud.scanner_positions
     if sp is not None:

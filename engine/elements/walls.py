@@ -151,8 +151,9 @@ def _subtract(intervals, lo, hi):
     return [(a, b) for a, b in out if b > a]
 
 
-def _pieces(footprints: dict, prm: WallRunParams):
-    """Interior and exterior wall pieces and the open-plan pairs of one storey."""
+def _pieces(footprints: dict, prm: WallRunParams, measured=None):
+    """Interior and exterior wall pieces and the open-plan pairs of one storey; ``measured``
+    [(region, thickness)]: exterior pieces whose default axis lies in a region get its thickness."""
     P, Q, owner = _edges(footprints, prm.simplify)
     m = len(P)
     if m == 0:
@@ -203,8 +204,14 @@ def _pieces(footprints: dict, prm: WallRunParams):
             mid = P[i] + D[i] * (0.5 * (u0 + u1)) + N[i] * probe
             if closed.contains(Point(mid)):
                 continue
-            off = N[i] * (t / 2)
-            pieces.append(_Piece(P[i] + D[i] * u0 + off, P[i] + D[i] * u1 + off, t, True, owner[i], None, False))
+            te, known = t, False
+            probe_axis = Point(P[i] + D[i] * (0.5 * (u0 + u1)) + N[i] * (t / 2))
+            for region, tm in measured or ():
+                if region.contains(probe_axis):
+                    te, known = tm, True
+                    break
+            off = N[i] * (te / 2)
+            pieces.append(_Piece(P[i] + D[i] * u0 + off, P[i] + D[i] * u1 + off, te, True, owner[i], None, known))
     return pieces, open_pairs
 
 
@@ -362,13 +369,14 @@ def _join(runs: list, prm: WallRunParams) -> None:
             r.spans = [(u0 + shift, u1 + shift, lft, rgt) for u0, u1, lft, rgt in r.spans]
 
 
-def wall_runs(footprints: dict, storey: int, prm: WallRunParams = WallRunParams()):
-    """Wall runs of one storey from its spaces' footprints (``{space id: shapely geometry}``).
+def wall_runs(footprints: dict, storey: int, prm: WallRunParams = WallRunParams(), measured=None):
+    """Wall runs of one storey from its spaces' footprints (``{space id: shapely geometry}``);
+    ``measured``: [(shapely region, thickness m)] of exterior walls measured in the scan.
 
     Returns ``(runs, open_pairs)``: the runs (joined, ends met) and the pairs of spaces that
     meet without a wall.
     """
-    pieces, open_pairs = _pieces(footprints, prm)
+    pieces, open_pairs = _pieces(footprints, prm, measured)
     runs = [r for r in _runs_of(pieces, storey, prm) if r.length >= prm.min_length]
     _join(runs, prm)
     return [r for r in runs if r.length >= prm.min_length], open_pairs

@@ -139,3 +139,26 @@ def test_a_model_with_its_own_exterior_ids_and_detected_openings_rebuilds():
     third = building_elements(again, params=NO_SCAN)
     assert sorted(s.id for s in third.of_type(ShapeType.EXTERIOR, active=None)) == ["exterior_s0", "exterior_s0_part"]
     assert "door_d" in third
+
+
+def test_reveal_depth_measures_an_exterior_wall_through_its_window():
+    from engine.elements.thickness import PointGrid, reveal_depth
+    rng = np.random.default_rng(3)
+    # exterior wall along x, room on the +y side (inner face y = 0), truly 0.45 m thick (outer face y = -0.45);
+    # the run was built with the default 0.3 m: axis at y = -0.15
+    wall = Shape("w", ShapeType.WALL, Polyhedron.box((0, -0.3, 0), (6, 0, 2.8)), terminal=True,
+                 attributes={"axis_line": [[0, -0.15], [6, -0.15]], "thickness": 0.3, "external": True,
+                             "sides": ["r", "exterior_s0"]})
+    win = Shape("o", ShapeType.WINDOW, Polyhedron.box((2, -0.3, 0.9), (3.2, 0, 2.2)), terminal=True, parent="w",
+                attributes={"width": 1.2, "sill": 0.9, "height": 1.3})
+    n = 4000
+    jamb = np.c_[rng.choice([2.0, 3.2], n), -rng.uniform(0, 0.45, n), rng.uniform(0.9, 2.2, n)]
+    sill = np.c_[rng.uniform(2.0, 3.2, n), -rng.uniform(0, 0.45, n), np.full(n, 0.9)]
+    face = np.c_[rng.uniform(0, 6, n), np.zeros(n), rng.uniform(0, 2.8, n)]
+    face = face[~((face[:, 0] > 2) & (face[:, 0] < 3.2) & (face[:, 2] > 0.9) & (face[:, 2] < 2.2))]
+    beyond = np.c_[rng.uniform(0, 6, 300), -rng.uniform(5, 10, 300), rng.uniform(0, 3, 300)]  # seen through it
+    pts = np.vstack([jamb, sill, face, beyond]) + rng.normal(0, 0.003, (len(jamb) + len(sill) + len(face) + 300, 3))
+    t = reveal_depth(wall, [win], PointGrid(pts), inner_side=1, max_thickness=0.7)
+    assert t == pytest.approx(0.45, abs=0.02)
+    # no reveal points: no measurement
+    assert reveal_depth(wall, [win], PointGrid(np.vstack([face, beyond])), 1, 0.7) is None
