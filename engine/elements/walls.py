@@ -228,13 +228,13 @@ def _runs_of(pieces: list, storey: int, prm: WallRunParams) -> list:
     # cluster directions (wrap at π)
     groups, cur = [], [recs[0]]
     for r in recs[1:]:
-        if r[0] - cur[-1][0] <= prm.parallel_angle:
+        if r[0] - cur[-1][0] <= prm.run_angle:
             cur.append(r)
         else:
             groups.append(cur)
             cur = [r]
     groups.append(cur)
-    if len(groups) > 1 and groups[0][0][0] + math.pi - groups[-1][-1][0] <= prm.parallel_angle:
+    if len(groups) > 1 and groups[0][0][0] + math.pi - groups[-1][-1][0] <= prm.run_angle:
         groups[0] = groups[-1] + groups[0]
         groups.pop()
     runs = []
@@ -269,9 +269,14 @@ def _runs_of(pieces: list, storey: int, prm: WallRunParams) -> list:
             for it in line:
                 for ch in chains:
                     last = ch[-1]
+                    end = max(x[2] for x in ch)
+                    same_rooms = not it[3].external and {it[4], it[5]} == {last[4], last[5]}
+                    # a junction, or a doorway between the same two rooms where their
+                    # footprints reach into the wall (the wall goes on through it)
+                    reach = prm.doorway_bridge if same_rooms else prm.max_thickness
                     if (it[3].external == last[3].external
                             and abs(it[3].thickness - _thick(ch)) <= prm.thickness_tolerance
-                            and it[1] <= max(x[2] for x in ch) + prm.max_thickness):
+                            and it[1] <= end + reach):
                         ch.append(it)
                         break
                 else:
