@@ -39,6 +39,8 @@ def add_synth(sub) -> None:
     p.add_argument("--points", type=int, default=DEFAULT_POINTS,
                    help=f"about how many points to simulate (default {DEFAULT_POINTS:,})")
     p.add_argument("--no-clutter", action="store_true", help="leave the rooms empty")
+    p.add_argument("--no-surroundings", action="store_true",
+                   help="nothing outside the building (no ground, trees or facade seen through the windows)")
     p.add_argument("--no-png", action="store_true", help="skip the top-view picture")
     p.add_argument("--no-ifc", action="store_true", help="skip the IFC files of the true model and variants")
     p.set_defaults(func=cmd_synth)
@@ -92,7 +94,7 @@ def cmd_synth(args) -> int:
     t0 = time.perf_counter()
     try:
         kw = dict(seed=args.seed, noise=args.noise, target_points=args.points, clutter=not args.no_clutter,
-                  progress=bar)
+                  surroundings=not args.no_surroundings, progress=bar)
         if args.preset.lower().endswith(".json"):
             plan = FloorPlan.from_json(args.preset)
             name = os.path.splitext(os.path.basename(args.preset))[0]  # file names follow the file

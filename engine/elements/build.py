@@ -192,7 +192,7 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
             footprints[k] = fps
     per_storey = {k: _storey_walls(base, k, by_storey[k], fps, prm, old_ext.get(k, []))
                   for k, fps in footprints.items()}
-    xyz_model = _model_points(model, cloud) if detect and _has_detector() else None
+    xyz_model = _model_points(model, cloud) if detect else None
     detected = []
     if xyz_model is not None:
         walls = [w for st in per_storey.values() for w in st[0]]
@@ -306,11 +306,6 @@ def _measured_exteriors(walls: list[Shape], openings: list[Shape], xyz: np.ndarr
     return out
 
 
-def _has_detector() -> bool:  # TODO(lead): remove once engine/elements/openings.py lands
-    import importlib.util
-    return importlib.util.find_spec("engine.elements.openings") is not None
-
-
 def _detect(model: BuildingModel, walls: list[Shape], xyz: np.ndarray, cloud, prm: ElementsParams) -> list[Shape]:
     from .openings import detect_openings
 
@@ -320,7 +315,7 @@ def _detect(model: BuildingModel, walls: list[Shape], xyz: np.ndarray, cloud, pr
     if sp is not None:
         sp = sp @ T[:3, :3].T + T[:3, 3]
     ext = {s.storey: s.id for s in model.of_type(ShapeType.EXTERIOR) if _made_here(s)}
-    found = detect_openings(walls, model.storeys, xyz, normals, cloud.scan_index, sp, exterior_ids=ext)
+    found = detect_openings(walls, model.storeys, xyz, normals, cloud.scan_index, sp, prm.openings, ext)
     out = []
     for o in found:
         o = o.with_(attributes={**o.attributes, "detected": True})

@@ -5,6 +5,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..quantities import Flag, Metres, Radians
+from .openings import OpeningParams
 
 __all__ = ["WallRunParams", "SlabParams", "ElementsParams"]
 
@@ -23,12 +24,16 @@ class WallRunParams:
     min_length: Metres = 0.1
     """Wall pieces shorter than this along their axis are dropped, metres."""
     parallel_angle: Radians = math.radians(5.0)
-    """Room faces within this angle of antiparallel face each other; pieces within it of
-    parallel can be one run, radians."""
+    """Room faces within this angle of antiparallel face each other, radians."""
+    run_angle: Radians = math.radians(1.5)
+    """Wall pieces within this angle of parallel (and on one line) can be one run, radians."""
     line_tolerance: Metres = 0.06
     """Collinear pieces whose centre lines are this close (across) are one run, metres."""
     thickness_tolerance: Metres = 0.06
     """Collinear pieces whose thicknesses differ by at most this can be one run, metres."""
+    doorway_bridge: Metres = 3.0
+    """Collinear pieces of a wall between the same two rooms this far apart are one run: the
+    rooms' footprints meet in a doorway (the wall goes on through it), metres."""
     simplify: Metres = 0.01
     """Footprints are simplified by this much before their edges are read, metres."""
     min_join_angle: Radians = math.radians(20.0)
@@ -55,5 +60,6 @@ class ElementsParams:
 
     walls: WallRunParams = field(default_factory=WallRunParams)
     slabs: SlabParams = field(default_factory=SlabParams)
+    openings: OpeningParams = field(default_factory=OpeningParams)
     detect_openings: Flag = True
     """Find doors and windows in the walls when a scan is given."""

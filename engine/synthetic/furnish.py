@@ -1,4 +1,5 @@
-"""Clutter for synthetic rooms: shelves and cabinets against walls, tables in the room.
+"""Clutter for synthetic rooms: shelves and cabinets against walls (not in front of doors
+or windows), tables in the room.
 
 Clutter occludes walls and floors in the simulated scans, as furniture does in real ones.
 Placement is random but reproducible: same plan, same parameters, same seed, same boxes.
@@ -11,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from shapely.ops import unary_union
 
-from .plan import Clutter, FloorPlan, door_footprint
+from .plan import Clutter, FloorPlan, door_footprint, window_footprint
 
 __all__ = ["FurnishParams", "furnish"]
 
@@ -48,6 +49,8 @@ class FurnishParams:
     """Minimum distance of a table from the walls, metres."""
     door_clearance: float = 1.0
     """No furniture within this distance of a door opening, metres."""
+    window_clearance: float = 0.3
+    """No shelf or cabinet within this distance of a window opening, metres."""
     spacing: float = 0.3
     """Minimum distance between two pieces of furniture, metres."""
     min_room_area: float = 6.0
@@ -86,11 +89,16 @@ def furnish(plan: FloorPlan, rng=None, params: FurnishParams = FurnishParams()) 
         fp = door_footprint(plan, d)[0].buffer(params.door_clearance)
         for name in d.rooms:
             door_zones.setdefault(name, []).append(fp)
+    window_zones = {}
+    for w in plan.windows:
+        window_zones.setdefault(w.room, []).append(window_footprint(plan, w)[0].buffer(params.window_clearance))
     for room in plan.rooms:
         poly = room.shape
         if not room.furnished or poly.area < params.min_room_area:
             continue
         doors = unary_union(door_zones[room.name]) if room.name in door_zones else None
+        zones = door_zones.get(room.name, []) + window_zones.get(room.name, [])
+        wall_zones = unary_union(zones) if zones else None
         placed = [c.footprint() for c in items if c.room == room.name]
         coords = np.asarray(poly.exterior.coords)
         edges = [(coords[k], coords[k + 1]) for k in range(len(coords) - 1)]
@@ -111,7 +119,7 @@ def furnish(plan: FloorPlan, rng=None, params: FurnishParams = FurnishParams()) 
                 c = p + d * u - n * (depth / 2 + params.wall_gap)
                 cand = Clutter(kind, (float(c[0]), float(c[1])), (w, depth, h), math.atan2(d[1], d[0]), room.name)
                 fp = cand.footprint()
-                if _inside(poly, fp, placed, doors, params):
+                if _inside(poly, fp, placed, wall_zones, params):
                     items.append(cand)
                     placed.append(fp)
                     return

@@ -1,19 +1,20 @@
 """Floor-plan description of a synthetic building and its true :class:`BuildingModel`.
 
 A plan lists *rooms* (clear interior spaces: a polygon, a storey, an optional own ceiling
-height), *doors* between two rooms, *storeys* (floor height and clear height), clutter
-boxes, and the wall and slab thicknesses. Walls are not described: they are derived as the
-gap between neighbouring rooms (interior walls, thickness = the gap) and a band of
-``exterior_thickness`` around the building, then split into straight pieces, one
-:class:`~engine.model.Shape` per piece.
+height), *doors* between two rooms or from a room to the outside, *windows* in exterior
+walls, *storeys* (floor height and clear height), clutter boxes, and the wall and slab
+thicknesses. Walls are not described: they are derived as the gap between neighbouring
+rooms (interior walls, thickness = the gap) and a band of ``exterior_thickness`` around
+the building, then split into straight pieces, one :class:`~engine.model.Shape` per piece
+(:mod:`engine.synthetic.layout`, whose names this module re-exports).
 
 :func:`build_truth` turns a plan into the true model: interior spaces, walls, floor and
-ceiling slabs, exterior spaces, doors, adjacency (spaces sharing a wall) and connectivity
-(spaces joined by a door). :func:`rooms_from_partition` makes rooms from a partition of the
-footprint into cells sharing edges, which is the easiest way to write a plan with exact
-wall gaps at any angle. Neighbouring rooms should be ``interior_thickness`` apart (that is
-what :func:`rooms_from_partition` gives); a wider gap is still filled with wall, but the
-piece is not recognised as the wall *between* the two rooms.
+ceiling slabs, exterior spaces, doors, windows, adjacency (spaces sharing a wall) and
+connectivity (spaces joined by a door). :func:`rooms_from_partition` makes rooms from a
+partition of the footprint into cells sharing edges, which is the easiest way to write a
+plan with exact wall gaps at any angle. Neighbouring rooms should be ``interior_thickness``
+apart (that is what :func:`rooms_from_partition` gives); a wider gap is still filled with
+wall, but the piece is not recognised as the wall *between* the two rooms.
 
 A plan round-trips through JSON (:meth:`FloorPlan.to_json` / :meth:`FloorPlan.from_json`),
 which is what ``indoor synth plan.json -o DIR`` reads::
@@ -24,61 +25,85 @@ which is what ``indoor synth plan.json -o DIR`` reads::
      "rooms": [{"name": "A", "polygon": [[0, 0], [4, 0], [4, 5], [0, 5]]},
                {"name": "B", "polygon": [[4.15, 0], [8, 0], [8, 5], [4.15, 5]],
                 "ceiling_height": 2.5}],
-     "doors": [{"rooms": ["A", "B"], "position": 0.5, "width": 0.9, "height": 2.1}]}
+     "doors": [{"rooms": ["A", "B"], "position": 0.5, "width": 0.9, "height": 2.1},
+               {"rooms": ["A"], "exterior": true, "edge": 0, "position": 0.3, "open": false}],
+     "windows": [{"room": "A", "edge": 3, "position": 0.5, "width": 1.2, "height": 1.4,
+                  "sill": 0.9},
+                 {"room": "B", "position": 0.6, "width": 1.5, "height": 1.3, "sill": 0.8}]}
+
+Doors: ``"rooms"`` names two rooms (an interior door in the wall they share) or one room
+(an exterior door; ``"exterior": true`` may say so explicitly). Windows and exterior doors
+sit in the room's exterior wall: ``"edge"`` (optional) is the index ``k`` of the room
+polygon's edge from vertex ``k`` to ``k + 1`` (in the order the polygon is written); the
+opening's centre lies at ``"position"`` (0–1) along the parts of that edge whose other side
+is outside, or, without ``"edge"``, along all such parts of the room's boundary taken end
+to end in the polygon's order (see :func:`~engine.synthetic.layout.window_footprint`).
+``"sill"`` and ``"height"`` (metres above the room's floor) give the window's vertical
+extent; it must end below the room's ceiling.
 
 Clutter is added by :func:`~engine.synthetic.furnish.furnish` when a plan has none.
 """
 from __future__ import annotations
 
 import json
-import logging
 import math
 import os
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Optional, Sequence
 
-import numpy as np
 import shapely
-from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box
-from shapely.ops import unary_union
+from shapely.geometry import Polygon
 
 from ..errors import FormatError, InputError
 from ..fileutil import atomic_write_text
-from ..model import BuildingModel, Polyhedron, Provenance, Relation, Shape, ShapeType, Storey
+from .layout import (  # noqa: F401  (re-exported: the layout of a plan lives in .layout)
+    _EPS,
+    _MIN_INTERVAL,
+    _MITRE,
+    _OUTLINE_JOIN,
+    _PROBE_MARGIN,
+    OPENING_MARGIN,
+    ExteriorStretch,
+    PlanGeometry,
+    WallPiece,
+    _clean,
+    _edge_frame,
+    _polygons,
+    _project_interval,
+    _split_holes,
+    _strip,
+    build_truth,
+    door_footprint,
+    exterior_id,
+    exterior_stretches,
+    plan_geometry,
+    window_footprint,
+)
 
 __all__ = [
     "PLAN_SCHEMA",
     "Room",
     "Door",
+    "Window",
     "PlanStorey",
     "Clutter",
     "FloorPlan",
     "WallPiece",
     "PlanGeometry",
+    "ExteriorStretch",
     "rooms_from_partition",
     "plan_geometry",
     "build_truth",
     "door_footprint",
+    "window_footprint",
+    "exterior_stretches",
+    "exterior_id",
 ]
-
-log = logging.getLogger(__name__)
 
 PLAN_SCHEMA = "indoor-floor-plan"
 """Value of the ``schema`` key of a floor-plan JSON file."""
 PLAN_SCHEMA_VERSION = 1
 """Version of the floor-plan JSON layout."""
-
-_EPS = 1e-6
-"""Geometric tolerance of the 2-D operations, metres."""
-_MIN_INTERVAL = 0.05
-"""Shared boundary shorter than this (metres) is not a wall between two spaces."""
-_PROBE_MARGIN = 0.02
-"""Extra depth (metres) of the probe strip that finds the room across a wall gap."""
-_MITRE = dict(join_style="mitre", mitre_limit=10.0)
-"""Sharp mitred offsets: shrinking cells keeps the wall gap exact at any corner angle."""
-_OUTLINE_JOIN = dict(join_style="mitre", mitre_limit=2.0)
-"""The building outline keeps right-angled (and blunter) corners square and bevels acute ones."""
-
 
 # ----------------------------------------------------------------------------- plan types
 @dataclass(frozen=True)
@@ -123,19 +148,25 @@ class Room:
 
 @dataclass(frozen=True)
 class Door:
-    """A door in the wall shared by two rooms.
+    """A door in the wall shared by two rooms, or in a room's exterior wall.
 
     Attributes
     ----------
-    rooms : (str, str)
-        Names of the two rooms it joins.
+    rooms : (str, str) or (str,)
+        Names of the two rooms it joins; one name makes an exterior door (from that room
+        to the outside).
     position : float
         Centre of the door as a fraction (0–1) of the shared stretch of wall, measured
-        along the first room's boundary; clamped so the door fits.
+        along the first room's boundary; clamped so the door fits. For an exterior door:
+        along the room's exterior stretches, as for a :class:`Window`.
     width, height : float
         Clear opening, metres.
     open : bool
-        An open door lets scanner rays through; a closed one is part of the wall surface.
+        An open door is a clear hole through the wall (with its reveals); a closed one
+        has a leaf inside the wall thickness, recessed from both wall faces.
+    edge : int or None
+        Exterior doors only: index of the room polygon's edge that holds the door (None:
+        anywhere on the room's exterior boundary, see :class:`Window`).
     """
 
     rooms: tuple
@@ -143,6 +174,46 @@ class Door:
     width: float = 0.9
     height: float = 2.1
     open: bool = True
+    edge: Optional[int] = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "rooms", tuple(self.rooms))
+
+    @property
+    def exterior(self) -> bool:
+        """True for a door from a room to the outside."""
+        return len(self.rooms) == 1
+
+
+@dataclass(frozen=True)
+class Window:
+    """A window: a hole through a room's exterior wall from ``sill`` to ``sill + height``
+    above the room's floor, glazed in the middle of the wall thickness.
+
+    Attributes
+    ----------
+    room : str
+        Name of the room it lights.
+    position : float
+        Centre of the window as a fraction (0–1) along the room's exterior stretches (the
+        parts of its boundary whose other side is outside), taken end to end in the order
+        of the room's polygon, or only those of edge ``edge``; moved so the window fits
+        (:func:`~engine.synthetic.layout.window_footprint`).
+    width, height : float
+        Clear opening, metres.
+    sill : float
+        Height of the opening's bottom above the room's floor, metres.
+    edge : int or None
+        Index ``k`` of the room polygon's edge (vertex ``k`` to ``k + 1``) that holds the
+        window; None = anywhere on the room's exterior boundary.
+    """
+
+    room: str
+    position: float = 0.5
+    width: float = 1.2
+    height: float = 1.4
+    sill: float = 0.9
+    edge: Optional[int] = None
 
 
 @dataclass(frozen=True)
@@ -202,7 +273,7 @@ class Clutter:
 
 @dataclass(frozen=True)
 class FloorPlan:
-    """A building as rooms, doors and storeys; walls are derived (see module doc).
+    """A building as rooms, doors, windows and storeys; walls are derived (see module doc).
 
     Attributes
     ----------
@@ -219,6 +290,7 @@ class FloorPlan:
         Thickness of floor and roof slabs, metres.
     exterior_margin : float
         How far the exterior space reaches beyond the outer walls, metres.
+    windows : tuple of Window
     """
 
     name: str
@@ -230,9 +302,10 @@ class FloorPlan:
     exterior_thickness: float = 0.3
     slab_thickness: float = 0.3
     exterior_margin: float = 1.0
+    windows: tuple = ()
 
     def __post_init__(self):
-        for k in ("storeys", "rooms", "doors", "clutter"):
+        for k in ("storeys", "rooms", "doors", "clutter", "windows"):
             object.__setattr__(self, k, tuple(getattr(self, k)))
 
     def room(self, name: str) -> Room:
@@ -270,7 +343,8 @@ class FloorPlan:
             "exterior_margin": self.exterior_margin,
             "storeys": [asdict(s) for s in self.storeys],
             "rooms": [{**asdict(r), "polygon": [list(p) for p in r.polygon]} for r in self.rooms],
-            "doors": [{**asdict(d), "rooms": list(d.rooms)} for d in self.doors],
+            "doors": [_door_dict(d) for d in self.doors],
+            "windows": [_window_dict(w) for w in self.windows],
             "clutter": [{**asdict(c), "center": list(c.center), "size": list(c.size)} for c in self.clutter],
         }
 
@@ -289,9 +363,10 @@ class FloorPlan:
                                  None if r.get("ceiling_height") is None else float(r["ceiling_height"]),
                                  bool(r.get("scanned", True)), bool(r.get("furnished", True)))
                             for r in d["rooms"]),
-                doors=tuple(Door(tuple(map(str, x["rooms"])), float(x.get("position", 0.5)),
-                                 float(x.get("width", 0.9)), float(x.get("height", 2.1)), bool(x.get("open", True)))
-                            for x in d.get("doors", [])),
+                doors=tuple(_door_from(x, path) for x in d.get("doors", [])),
+                windows=tuple(Window(str(w["room"]), float(w.get("position", 0.5)), float(w.get("width", 1.2)),
+                                     float(w.get("height", 1.4)), float(w.get("sill", 0.9)), _edge_from(w))
+                              for w in d.get("windows", [])),
                 clutter=tuple(Clutter(str(c["kind"]), tuple(map(float, c["center"])), tuple(map(float, c["size"])),
                                       float(c.get("angle", 0.0)), str(c["room"]), float(c.get("z0", 0.0)))
                               for c in d.get("clutter", [])),
@@ -300,6 +375,8 @@ class FloorPlan:
                 slab_thickness=float(d.get("slab_thickness", 0.3)),
                 exterior_margin=float(d.get("exterior_margin", 1.0)),
             ).validated(path)
+        except InputError:
+            raise
         except (KeyError, TypeError, ValueError) as e:
             raise FormatError(f"malformed floor-plan JSON: {e!r}", path) from None
 
@@ -341,16 +418,76 @@ class FloorPlan:
             if r.ceiling_height is not None and not r.ceiling_height > 0:
                 raise InputError(f"room {r.name!r}: ceiling height must be positive", path)
         for d in self.doors:
-            if len(d.rooms) != 2 or any(n not in names for n in d.rooms):
-                raise InputError(f"door {d.rooms!r} must join two rooms of the plan", path)
-            if not (d.width > 0 and d.height > 0):
-                raise InputError(f"door {d.rooms!r}: width and height must be positive", path)
+            if len(d.rooms) not in (1, 2) or any(n not in names for n in d.rooms):
+                raise InputError(f"door {d.rooms!r} must join two rooms of the plan or lead from one "
+                                 f"room to the outside", path)
+            if not (d.width > 0 and d.height > 0 and math.isfinite(d.position)):
+                raise InputError(f"door {d.rooms!r}: width and height must be positive, the position finite", path)
+            if d.edge is not None:
+                if len(d.rooms) != 1:
+                    raise InputError(f"door {d.rooms!r}: only an exterior door (one room) takes an 'edge'", path)
+                self._check_edge(d.edge, self.room(d.rooms[0]), f"door {d.rooms!r}", path)
+        for w in self.windows:
+            what = f"window in {w.room!r}"
+            if w.room not in names:
+                raise InputError(f"{what}: unknown room", path)
+            room = self.room(w.room)
+            clear = self.ceiling_z(room) - self.floor_z(room)
+            if not all(math.isfinite(v) for v in (w.position, w.width, w.height, w.sill)):
+                raise InputError(f"{what}: position, width, height and sill must be finite numbers", path)
+            if not (w.width > 0 and w.height > 0 and w.sill >= 0):
+                raise InputError(f"{what}: width and height must be positive and the sill not negative", path)
+            if w.sill + w.height >= clear:
+                raise InputError(f"{what}: sill + height = {w.sill + w.height:.2f} m reaches the ceiling "
+                                 f"({clear:.2f} m above the floor)", path)
+            if w.edge is not None:
+                self._check_edge(w.edge, room, what, path)
         for c in self.clutter:
             if c.room not in names:
                 raise InputError(f"clutter in unknown room {c.room!r}", path)
         if not (self.interior_thickness > 0 and self.exterior_thickness > 0 and self.slab_thickness > 0):
             raise InputError(f"plan {self.name!r}: thicknesses must be positive", path)
         return self
+
+    @staticmethod
+    def _check_edge(edge, room: Room, what: str, path) -> None:
+        if isinstance(edge, bool) or not isinstance(edge, int) or not 0 <= edge < len(room.polygon):
+            raise InputError(f"{what}: edge {edge!r} is not an edge index of room {room.name!r} "
+                             f"(0..{len(room.polygon) - 1})", path)
+
+
+def _door_dict(d: Door) -> dict:
+    out = {"rooms": list(d.rooms), "position": d.position, "width": d.width, "height": d.height, "open": d.open}
+    if d.exterior:
+        out["exterior"] = True
+    if d.edge is not None:
+        out["edge"] = d.edge
+    return out
+
+
+def _window_dict(w: Window) -> dict:
+    out = asdict(w)
+    if w.edge is None:
+        del out["edge"]
+    return out
+
+
+def _edge_from(x: dict) -> Optional[int]:
+    e = x.get("edge")
+    if e is None:
+        return None
+    if isinstance(e, bool) or not isinstance(e, (int, float)) or float(e) != int(e):
+        raise ValueError(f"'edge' must be a whole number, not {e!r}")
+    return int(e)
+
+
+def _door_from(x: dict, path) -> Door:
+    rooms = tuple(map(str, x["rooms"]))
+    if "exterior" in x and bool(x["exterior"]) != (len(rooms) == 1):
+        raise InputError(f"door {rooms!r}: 'exterior': {bool(x['exterior'])} needs "
+                         f"{'one room' if x['exterior'] else 'two rooms'}", path)
+    return Door(rooms, float(x.get("position", 0.5)), float(x.get("width", 0.9)), float(x.get("height", 2.1)),
+                bool(x.get("open", True)), _edge_from(x))
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -382,390 +519,3 @@ def rooms_from_partition(cells: Sequence[tuple], thickness: float, **room_kw) ->
         shrunk = shapely.geometry.polygon.orient(shrunk.simplify(_EPS), 1.0)
         out.append(Room(name, tuple(shrunk.exterior.coords), **kw))
     return out
-
-
-def _edge_frame(p, q):
-    """Unit direction, outward normal (for a CCW polygon) and length of edge p→q."""
-    d = np.subtract(q, p)
-    length = float(np.hypot(*d))
-    d = d / length
-    return d, np.array([d[1], -d[0]]), length
-
-
-def _strip(p, q, depth, u0=0.0, u1=None) -> Polygon:
-    """The rectangle on the outer side of edge p→q between params u0, u1, ``depth`` deep."""
-    d, n, length = _edge_frame(p, q)
-    u1 = length if u1 is None else u1
-    a = np.asarray(p) + d * u0
-    b = np.asarray(p) + d * u1
-    return Polygon([tuple(a), tuple(b), tuple(b + n * depth), tuple(a + n * depth)])
-
-
-def _project_interval(geom, p, d, length) -> Optional[tuple]:
-    """[u0, u1] covered by ``geom``'s coordinates projected on the edge p + u d."""
-    coords = []
-    for g in getattr(geom, "geoms", [geom]):
-        if g.is_empty:
-            continue
-        if isinstance(g, Polygon):
-            coords.extend(g.exterior.coords)
-        else:
-            coords.extend(g.coords)
-    if not coords:
-        return None
-    u = (np.asarray(coords) - np.asarray(p)) @ d
-    u0, u1 = max(float(u.min()), 0.0), min(float(u.max()), length)
-    return (u0, u1) if u1 - u0 > _EPS else None
-
-
-def _polygons(geom) -> list[Polygon]:
-    if geom is None or geom.is_empty:
-        return []
-    if isinstance(geom, Polygon):
-        return [geom]
-    if isinstance(geom, MultiPolygon):
-        return list(geom.geoms)
-    return [g for g in getattr(geom, "geoms", []) if isinstance(g, Polygon) and not g.is_empty]
-
-
-def _clean(poly: Polygon) -> Polygon:
-    poly = poly.buffer(0).simplify(_EPS)
-    return shapely.geometry.polygon.orient(poly, 1.0) if isinstance(poly, Polygon) else poly
-
-
-def _split_holes(poly: Polygon) -> list[Polygon]:
-    """Split a polygon with holes into hole-free polygons (cuts through hole centroids)."""
-    if not poly.interiors:
-        return [poly]
-    hole = Polygon(poly.interiors[0])
-    cx = hole.centroid.x
-    minx, miny, maxx, maxy = poly.bounds
-    left = box(minx - 1, miny - 1, cx, maxy + 1)
-    right = box(cx, miny - 1, maxx + 1, maxy + 1)
-    out = []
-    for half in (left, right):
-        for p in _polygons(poly.intersection(half)):
-            if p.area > _EPS:
-                out.extend(_split_holes(_clean(p)))
-    return out
-
-
-# ----------------------------------------------------------------------------- geometry
-@dataclass(frozen=True)
-class WallPiece:
-    """One straight piece of wall (footprint polygon) found by :func:`plan_geometry`.
-
-    ``rooms`` : names of the rooms it bounds; ``exterior`` : True for the outer band;
-    ``thickness`` : metres.
-    """
-
-    polygon: Polygon
-    storey: int
-    thickness: float
-    exterior: bool
-    rooms: tuple
-
-
-@dataclass(frozen=True)
-class PlanGeometry:
-    """2-D geometry derived from a plan, per storey.
-
-    Attributes
-    ----------
-    outlines : tuple of Polygon
-        Outer boundary of the building (outer face of the exterior walls) per storey.
-    walls : tuple of WallPiece
-    exteriors : tuple of (storey, Polygon)
-        Hole-free pieces of the exterior space around each storey.
-    doors : tuple of (Door, Polygon, int)
-        Each door with its footprint across the wall and the index of its wall piece.
-    """
-
-    outlines: tuple
-    walls: tuple
-    exteriors: tuple
-    doors: tuple = field(default_factory=tuple)
-
-
-def door_footprint(plan: FloorPlan, door: Door) -> tuple[Polygon, np.ndarray, np.ndarray, float]:
-    """Footprint of a door across the wall gap between its two rooms.
-
-    Returns
-    -------
-    polygon : shapely Polygon — the opening's footprint, metres.
-    centre : (2,) float64 — door centre on the first room's wall face, metres.
-    direction : (2,) float64 — unit vector along the wall.
-    depth : float — wall thickness at the door, metres.
-
-    Raises
-    ------
-    InputError
-        When the rooms share no stretch of wall wide enough for the door.
-    """
-    a, b = plan.room(door.rooms[0]), plan.room(door.rooms[1])
-    if a.storey != b.storey:
-        raise InputError(f"door between {a.name!r} and {b.name!r}: rooms on different storeys")
-    pa, pb = a.shape, b.shape
-    probe = plan.interior_thickness + plan.exterior_thickness
-    best = None
-    coords = list(pa.exterior.coords)
-    for p, q in zip(coords[:-1], coords[1:]):
-        d, n, length = _edge_frame(p, q)
-        hit = _strip(p, q, probe).intersection(pb)
-        if hit.area <= _EPS:
-            continue
-        iv = _project_interval(hit, p, d, length)
-        if iv and (best is None or iv[1] - iv[0] > best[3][1] - best[3][0]):
-            gap = float(pb.distance(LineString([p, q])))
-            best = (p, d, n, iv, gap)
-    if best is None or best[3][1] - best[3][0] < door.width:
-        raise InputError(f"rooms {a.name!r} and {b.name!r} share no wall wide enough for a "
-                         f"{door.width:.2f} m door")
-    p, d, n, (u0, u1), gap = best
-    half = door.width / 2
-    uc = u0 + float(np.clip(door.position, 0.0, 1.0)) * (u1 - u0)
-    uc = float(np.clip(uc, u0 + half, u1 - half))
-    c = np.asarray(p) + d * uc
-    poly = Polygon([tuple(c - d * half), tuple(c + d * half), tuple(c + d * half + n * gap),
-                    tuple(c - d * half + n * gap)])
-    return poly, c, d, gap
-
-
-def plan_geometry(plan: FloorPlan) -> PlanGeometry:
-    """Derive outlines, wall pieces, exterior pieces and door footprints from a plan."""
-    t_int, t_ext = plan.interior_thickness, plan.exterior_thickness
-    outlines, walls, exteriors = [], [], []
-    for s in range(len(plan.storeys)):
-        rooms = [r for r in plan.rooms if r.storey == s]
-        if not rooms:
-            outlines.append(Polygon())
-            continue
-        polys = [r.shape for r in rooms]
-        for i, pi in enumerate(polys):
-            if not pi.is_valid or pi.area <= _EPS:
-                raise InputError(f"room {rooms[i].name!r} has an invalid polygon")
-            for j in range(i):
-                if pi.intersection(polys[j]).area > 1e-4:
-                    raise InputError(f"rooms {rooms[i].name!r} and {rooms[j].name!r} overlap")
-        outline = unary_union([p.buffer(t_ext, **_OUTLINE_JOIN) for p in polys])
-        if not isinstance(outline, Polygon):
-            raise InputError(f"storey {s} of plan {plan.name!r} is not one connected building")
-        outline = _clean(Polygon(outline.exterior))
-        outlines.append(outline)
-        wall_region = outline.difference(unary_union(polys))
-        pieces: list[list] = []  # [polygon, thickness, exterior, rooms]
-        taken = Polygon()
-        # pass 1: interior walls, found from the lower-index room of each pair
-        facing_all = []
-        for i, (room, pi) in enumerate(zip(rooms, polys)):
-            coords = list(pi.exterior.coords)
-            per_edge = []
-            for p, q in zip(coords[:-1], coords[1:]):
-                d, n, length = _edge_frame(p, q)
-                probe = _strip(p, q, t_int + _PROBE_MARGIN)
-                facing = []
-                for j, pj in enumerate(polys):
-                    if j == i:
-                        continue
-                    hit = probe.intersection(pj)
-                    if hit.area <= _EPS:
-                        continue
-                    iv = _project_interval(hit, p, d, length)
-                    if iv is None or iv[1] - iv[0] < _MIN_INTERVAL:
-                        continue
-                    facing.append(iv)
-                    if i < j:
-                        gap = float(pj.distance(LineString([p, q])))
-                        rect = _strip(p, q, gap, *iv).intersection(wall_region).difference(taken)
-                        for poly in _polygons(rect):
-                            if poly.area > 1e-5:
-                                pieces.append([_clean(poly), gap, False, {room.name, rooms[j].name}])
-                                taken = taken.union(poly)
-                per_edge.append((p, q, d, n, length, facing))
-            facing_all.append(per_edge)
-        # pass 2: exterior walls along the stretches that face the outside
-        for i, (room, per_edge) in enumerate(zip(rooms, facing_all)):
-            for p, q, d, n, length, facing in per_edge:
-                free, u = [], 0.0
-                for a, b in sorted(facing):
-                    if a > u + _EPS:
-                        free.append((u, a))
-                    u = max(u, b)
-                if length > u + _EPS:
-                    free.append((u, length))
-                for a, b in free:
-                    if b - a < _EPS * 10:
-                        continue
-                    mid = np.asarray(p) + d * (a + b) / 2 + n * (t_ext + _PROBE_MARGIN)
-                    if outline.contains(Point(mid)):
-                        continue  # a junction gap: filled in pass 3
-                    rect = _strip(p, q, t_ext, a, b).intersection(wall_region).difference(taken)
-                    for poly in _polygons(rect):
-                        if poly.area > 1e-5:
-                            pieces.append([_clean(poly), t_ext, True, {room.name}])
-                            taken = taken.union(poly)
-        # pass 3: junction and corner leftovers join the neighbour they extend best
-        left = wall_region.difference(taken)
-        for poly in _polygons(left):
-            if poly.area <= 1e-7:
-                continue
-            cands = []
-            for k, pc in enumerate(pieces):
-                shared = pc[0].buffer(1e-4).intersection(poly.boundary).length
-                if shared <= 1e-4:
-                    continue
-                u = unary_union([pc[0], poly])
-                if not isinstance(u, Polygon):
-                    u = unary_union([pc[0].buffer(1e-7, **_MITRE), poly.buffer(1e-7, **_MITRE)])
-                if not isinstance(u, Polygon):
-                    continue
-                cands.append((round(u.convex_hull.area - u.area, 6), -shared, k, u))
-            if not cands:
-                log.debug("wall leftover of %.4f m² joins no wall piece; kept on its own", poly.area)
-                near = min(range(len(pieces)), key=lambda k: pieces[k][0].distance(poly)) if pieces else None
-                if near is not None:
-                    pieces.append([_clean(poly), pieces[near][1], pieces[near][2], set(pieces[near][3])])
-                continue
-            _, _, k, u = min(cands, key=lambda c: c[:3])
-            pieces[k][0] = _clean(u)
-        for poly, th, ext, names in pieces:
-            for pp in _polygons(poly):
-                for part in _split_holes(pp):
-                    walls.append(WallPiece(part, s, float(th), bool(ext), tuple(sorted(names))))
-        # exterior space: the box around the outline minus the building
-        m = plan.exterior_margin
-        minx, miny, maxx, maxy = outline.bounds
-        ring = box(minx - m, miny - m, maxx + m, maxy + m).difference(outline)
-        for p in _polygons(ring):
-            for part in _split_holes(_clean(p)):
-                exteriors.append((s, part))
-    # doors
-    doors = []
-    for door in plan.doors:
-        fp, c, _, _ = door_footprint(plan, door)
-        st = plan.room(door.rooms[0]).storey
-        cand = [(w.polygon.intersection(fp).area, k) for k, w in enumerate(walls) if w.storey == st]
-        area, k = max(cand) if cand else (0.0, -1)
-        if area <= 1e-4:
-            raise InputError(f"door between {door.rooms[0]!r} and {door.rooms[1]!r} lies in no wall")
-        doors.append((door, fp, k))
-    return PlanGeometry(tuple(outlines), tuple(walls), tuple(exteriors), tuple(doors))
-
-
-# ----------------------------------------------------------------------------- truth model
-def _prism(poly: Polygon, z0: float, z1: float) -> Polyhedron:
-    return Polyhedron.prism(np.asarray(poly.exterior.coords)[:-1], z0, z1)
-
-
-def _touch_length(a: Polygon, b: Polygon) -> float:
-    return float(a.buffer(1e-3).intersection(b.boundary).length)
-
-
-def build_truth(plan: FloorPlan, geometry: Optional[PlanGeometry] = None) -> BuildingModel:
-    """The true :class:`BuildingModel` of a plan.
-
-    Shapes: one INTERIOR prism per room (floor to its ceiling; ids ``space_<i>``), one
-    WALL prism per wall piece (``wall_<k>``, ``attributes["thickness"]``, storey height),
-    SLAB prisms (``slab_<k>``: a floor slab under each storey's outline, a roof slab over
-    the top storey, a ceiling slab over rooms lower than their storey), EXTERIOR prisms
-    around each storey (``exterior_<s>_<k>``), DOOR prisms across their wall
-    (``door_<k>``, parent = the wall, ``attributes`` width/height/sill/open).
-    Relations: adjacency between spaces bounded by the same wall (``via`` = wall id),
-    connectivity between rooms joined by a door (``via`` = door id).
-
-    Parameters
-    ----------
-    plan : FloorPlan
-    geometry : PlanGeometry, optional
-        The result of :func:`plan_geometry` when already computed.
-    """
-    g = plan_geometry(plan) if geometry is None else geometry
-    shapes: list[Shape] = []
-    rel: list[Relation] = []
-    storeys = []
-    for s, st in enumerate(plan.storeys):
-        rooms = [r for r in plan.rooms if r.storey == s]
-        top = max([plan.ceiling_z(r) for r in rooms] + [st.floor_z + st.height])
-        storeys.append(Storey(s, st.floor_z, top, st.name or f"Storey {s}", st.floor_z))
-    room_ids = {}
-    for i, r in enumerate(plan.rooms):
-        sid = f"space_{i}"
-        room_ids[r.name] = sid
-        shapes.append(Shape(sid, ShapeType.INTERIOR, _prism(r.shape, plan.floor_z(r), plan.ceiling_z(r)),
-                            storey=r.storey, name=r.name, terminal=True,
-                            attributes={"ceiling_height": plan.ceiling_z(r) - plan.floor_z(r),
-                                        "scanned": r.scanned},
-                            log=("synthetic: room of the floor plan",)))
-    wall_ids = []
-    door_children: dict[int, list[str]] = {}
-    for k, (door, fp, w) in enumerate(g.doors):
-        door_children.setdefault(w, []).append(f"door_{k}")
-    for k, w in enumerate(g.walls):
-        st = storeys[w.storey]
-        wid = f"wall_{k}"
-        wall_ids.append(wid)
-        shapes.append(Shape(wid, ShapeType.WALL, _prism(w.polygon, st.floor_z, st.ceiling_z),
-                            storey=w.storey, name=f"Wall {k + 1}", terminal=True,
-                            children=tuple(door_children.get(k, ())),
-                            attributes={"thickness": w.thickness, "exterior": w.exterior,
-                                        "rooms": list(w.rooms)},
-                            log=("synthetic: wall derived from the room gaps",)))
-    for k, (door, fp, w) in enumerate(g.doors):
-        z0 = plan.floor_z(plan.room(door.rooms[0]))
-        did = f"door_{k}"
-        shapes.append(Shape(did, ShapeType.DOOR, _prism(fp, z0, z0 + door.height),
-                            storey=g.walls[w].storey, name=f"Door {k + 1}", terminal=True,
-                            parent=wall_ids[w],
-                            attributes={"width": door.width, "height": door.height, "sill": 0.0,
-                                        "open": door.open, "rooms": list(door.rooms)},
-                            log=("synthetic: door of the floor plan",)))
-        rel.append(Relation("connectivity", room_ids[door.rooms[0]], room_ids[door.rooms[1]], did))
-    n_slab = 0
-    t_s = plan.slab_thickness
-    for s, st in enumerate(storeys):
-        outline = g.outlines[s]
-        if outline.is_empty:
-            continue
-        shapes.append(Shape(f"slab_{n_slab}", ShapeType.SLAB, _prism(outline, st.floor_z - t_s, st.floor_z),
-                            storey=s, name=f"Floor slab {s}", terminal=True,
-                            attributes={"kind": "floor", "thickness": t_s}))
-        n_slab += 1
-        above = storeys[s + 1] if s + 1 < len(storeys) else None
-        if above is None or abs(above.floor_z - t_s - st.ceiling_z) > 1e-6:
-            shapes.append(Shape(f"slab_{n_slab}", ShapeType.SLAB, _prism(outline, st.ceiling_z, st.ceiling_z + t_s),
-                                storey=s, name=f"Roof slab {s}", terminal=True,
-                                attributes={"kind": "roof", "thickness": t_s}))
-            n_slab += 1
-        for r in plan.rooms:
-            if r.storey == s and plan.ceiling_z(r) < st.ceiling_z - 1e-6:
-                cz = plan.ceiling_z(r)
-                shapes.append(Shape(f"slab_{n_slab}", ShapeType.SLAB,
-                                    _prism(r.shape, cz, min(cz + t_s, st.ceiling_z)),
-                                    storey=s, name=f"Ceiling {r.name}", terminal=True,
-                                    attributes={"kind": "ceiling", "thickness": min(t_s, st.ceiling_z - cz),
-                                                "room": r.name}))
-                n_slab += 1
-    ext_ids = []
-    for k, (s, poly) in enumerate(g.exteriors):
-        st = storeys[s]
-        eid = f"exterior_{s}_{k}"
-        ext_ids.append((eid, s, poly))
-        shapes.append(Shape(eid, ShapeType.EXTERIOR, _prism(poly, st.floor_z, st.ceiling_z), storey=s,
-                            name="Exterior", terminal=True, log=("synthetic: outside the outer walls",)))
-    # adjacency: the rooms each wall piece was derived from; exterior walls also touch
-    # the exterior pieces along more than a few centimetres
-    for k, w in enumerate(g.walls):
-        spaces = [room_ids[name] for name in w.rooms]
-        outside = [eid for eid, s, poly in ext_ids
-                   if w.exterior and s == w.storey and _touch_length(w.polygon, poly) > _MIN_INTERVAL]
-        for a in range(len(spaces)):
-            for b in range(a + 1, len(spaces)):
-                rel.append(Relation("adjacency", spaces[a], spaces[b], wall_ids[k]))
-            for e in outside:
-                rel.append(Relation("adjacency", spaces[a], e, wall_ids[k]))
-    return BuildingModel(shapes=tuple(shapes), storeys=tuple(storeys), relations=tuple(rel),
-                         provenance=Provenance(method="synthetic", source=plan.name,
-                                               parameters={"interior_thickness": plan.interior_thickness,
-                                                           "exterior_thickness": plan.exterior_thickness,
-                                                           "slab_thickness": plan.slab_thickness}),
-                         name=plan.name)

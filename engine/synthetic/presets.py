@@ -4,11 +4,15 @@ Each preset is a floor plan (furnished with seeded clutter), scanned with the te
 (σ = 5 mm) or the mobile (σ = 2 cm) simulator, plus its true :class:`BuildingModel` and,
 for some, model variants:
 
-* ``office_mw`` — seven rooms on a long corridor (Manhattan);
-* ``two_storey_office`` — two storeys of offices on a corridor;
-* ``house_multi_height`` — four rooms with different ceiling heights;
+* ``office_mw`` — seven rooms on a long corridor (Manhattan); 15 windows, an entrance
+  door at the corridor's west end, the door between Room 1 and Room 2 closed;
+* ``two_storey_office`` — two storeys of offices on a corridor; 22 windows, an entrance
+  door at the ground-floor corridor's west end;
+* ``house_multi_height`` — four rooms with different ceiling heights; 8 windows and an
+  entrance door;
 * ``unscanned_room`` — a corridor with four rooms, one never scanned (its door closed);
 * ``syn_house`` — non-Manhattan: a common room, three private rooms and an open space;
+  9 windows (one in the slanted outer wall) and an entrance door;
 * ``hexagon_hall`` — a hexagonal hall with four small side rooms;
 * ``eval_demo`` — docs/method.md §4: a 6 m × 9 m × 2.5 m room plus a 1.8 m wide corridor;
   variants ``inacc`` (outer walls 5 cm outwards), ``incomp`` (the corridor missing),
@@ -22,7 +26,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Mapping, Optional, Union
 
 import numpy as np
@@ -40,6 +44,7 @@ from .plan import (
     FloorPlan,
     PlanStorey,
     Room,
+    Window,
     build_truth,
     plan_geometry,
     rooms_from_partition,
@@ -72,8 +77,8 @@ class SyntheticScene:
         Range noise σ of the scan, metres.
     cloud : PointCloud
         The simulated scan; ``fields["label"]`` int32 per point (LABEL_WALL 0,
-        LABEL_FLOOR 1, LABEL_CEILING 2, LABEL_CLUTTER 3); change_demo adds
-        ``fields["new"]``.
+        LABEL_FLOOR 1, LABEL_CEILING 2, LABEL_CLUTTER 3, LABEL_OUTSIDE 4, LABEL_GLASS 5,
+        LABEL_DOOR 6); change_demo adds ``fields["new"]``.
     truth : BuildingModel
         The true model (for change_demo: the old building).
     plan : FloorPlan
@@ -100,6 +105,32 @@ def _rect(x0, y0, x1, y1):
     return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
 
 
+def _side(rooms, name: str, direction) -> int:
+    """Index of the edge of room ``name`` whose outward normal points most along
+    ``direction`` (a compass vector (dx, dy))."""
+    room = next(r for r in rooms if r.name == name)
+    pts = np.asarray(room.polygon, dtype=np.float64)
+    nxt = np.roll(pts, -1, axis=0)
+    ccw = float(np.sum(pts[:, 0] * nxt[:, 1] - nxt[:, 0] * pts[:, 1])) > 0
+    e = nxt - pts
+    n = np.column_stack([e[:, 1], -e[:, 0]]) * (1.0 if ccw else -1.0)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    return int(np.argmax(n @ (np.asarray(direction, float) / np.linalg.norm(direction))))
+
+
+_N, _S, _E, _W = (0, 1), (0, -1), (1, 0), (-1, 0)
+
+
+def _windows(rooms, specs) -> list:
+    """Windows from (room, compass direction, position, width, height, sill) tuples."""
+    return [Window(name, pos, w, h, sill, _side(rooms, name, dirn)) for name, dirn, pos, w, h, sill in specs]
+
+
+def _entrance(rooms, name, direction, position=0.5, width=1.0, height=2.1, open=True) -> Door:
+    """An exterior door of room ``name`` in its wall facing ``direction``."""
+    return Door((name,), position, width, height, open, _side(rooms, name, direction))
+
+
 def _office_mw():
     t = 0.15
     cells = [("Corridor", _rect(0, 0, 18, 2), {"furnished": False})]
@@ -110,9 +141,15 @@ def _office_mw():
     rooms = rooms_from_partition(cells, t)
     pos = [0.3, 0.5, 0.7, 0.4, 0.6, 0.3, 0.8]
     doors = [Door((f"Room {k + 1}", "Corridor"), pos[k]) for k in range(7)]
-    doors.append(Door(("Room 1", "Room 2"), 0.7))
+    doors.append(Door(("Room 1", "Room 2"), 0.7, open=False))
+    doors.append(_entrance(rooms, "Corridor", _W, 0.5, width=1.2))
+    specs = [(f"Room {k + 1}", _N, 0.5, 1.5, 1.4, 0.9) for k in range(4)]
+    specs += [("Room 1", _W, 0.5, 1.2, 1.4, 0.9), ("Room 4", _E, 0.5, 1.2, 1.4, 0.9)]
+    specs += [(f"Room {k + 5}", _S, p, 1.2, 1.4, 0.9) for k in range(3) for p in (0.25, 0.75)]
+    specs += [("Room 5", _W, 0.5, 1.2, 1.4, 0.9), ("Room 7", _E, 0.5, 1.2, 1.4, 0.9),
+              ("Corridor", _E, 0.5, 1.0, 1.2, 1.0)]
     return FloorPlan("office_mw", (PlanStorey(0.0, 3.0, "Ground floor"),), tuple(rooms), tuple(doors),
-                     interior_thickness=t, exterior_thickness=0.3)
+                     interior_thickness=t, exterior_thickness=0.3, windows=tuple(_windows(rooms, specs)))
 
 
 def _two_storey_office():
@@ -128,9 +165,17 @@ def _two_storey_office():
             names += [f"Room {s}.{k + 1}", f"Room {s}.{k + 4}"]
         rooms += rooms_from_partition(cells, t)
         doors += [Door((n, f"Corridor {s}"), 0.25 + 0.5 * (i % 2)) for i, n in enumerate(names)]
+    specs = []
+    for s in (0, 1):
+        specs += [(f"Room {s}.{k}", _N, 0.5, 1.5, 1.4, 0.9) for k in (1, 2, 3)]
+        specs += [(f"Room {s}.{k}", _S, 0.5, 1.5, 1.4, 0.9) for k in (4, 5, 6)]
+        specs += [(f"Room {s}.{k}", _W, 0.5, 1.0, 1.4, 0.9) for k in (1, 4)]
+        specs += [(f"Room {s}.{k}", _E, 0.5, 1.0, 1.4, 0.9) for k in (3, 6)]
+    specs += [("Corridor 0", _E, 0.5, 1.0, 1.2, 1.0), ("Corridor 1", _E, 0.5, 1.0, 1.2, 1.0)]
+    doors.append(_entrance(rooms, "Corridor 0", _W, 0.5, width=1.2))
     storeys = (PlanStorey(0.0, 2.8, "Ground floor"), PlanStorey(3.1, 2.8, "First floor"))
     return FloorPlan("two_storey_office", storeys, tuple(rooms), tuple(doors), interior_thickness=t,
-                     exterior_thickness=0.3, slab_thickness=0.3)
+                     exterior_thickness=0.3, slab_thickness=0.3, windows=tuple(_windows(rooms, specs)))
 
 
 def _house_multi_height():
@@ -143,9 +188,13 @@ def _house_multi_height():
     ]
     rooms = rooms_from_partition(cells, t)
     doors = [Door(("Living room", "Kitchen"), 0.5), Door(("Living room", "Bedroom"), 0.7),
-             Door(("Studio", "Kitchen"), 0.4)]
+             Door(("Studio", "Kitchen"), 0.4), _entrance(rooms, "Living room", _S, 0.2)]
+    specs = [("Living room", _S, 0.7, 1.8, 1.4, 0.8), ("Living room", _W, 0.5, 1.2, 1.4, 0.9),
+             ("Kitchen", _S, 0.5, 1.2, 1.2, 1.0), ("Kitchen", _E, 0.5, 1.0, 1.2, 1.0),
+             ("Bedroom", _N, 0.5, 1.5, 1.3, 0.9), ("Bedroom", _W, 0.5, 1.0, 1.3, 0.9),
+             ("Studio", _N, 0.5, 2.0, 1.5, 0.8), ("Studio", _E, 0.5, 1.2, 1.5, 0.8)]
     return FloorPlan("house_multi_height", (PlanStorey(0.0, 3.2, "Ground floor"),), tuple(rooms),
-                     tuple(doors), interior_thickness=t, exterior_thickness=0.3)
+                     tuple(doors), interior_thickness=t, exterior_thickness=0.3, windows=tuple(_windows(rooms, specs)))
 
 
 def _unscanned_room():
@@ -178,9 +227,15 @@ def _syn_house():
     ]
     rooms = rooms_from_partition(cells, t)
     doors = [Door(("Common room", "Open space"), 0.6), Door(("Common room", "Private room 1"), 0.5),
-             Door(("Open space", "Private room 3"), 0.5), Door(("Private room 1", "Private room 2"), 0.4)]
+             Door(("Open space", "Private room 3"), 0.5), Door(("Private room 1", "Private room 2"), 0.4),
+             _entrance(rooms, "Common room", _S, 0.25)]
+    specs = [("Common room", _S, 0.7, 1.8, 1.4, 0.9), ("Common room", _W, 0.5, 1.2, 1.4, 0.9),
+             ("Open space", _W, 0.5, 1.5, 1.5, 0.9), ("Open space", _N, 0.5, 2.0, 1.5, 0.9),
+             ("Private room 1", _S, 0.5, 1.2, 1.4, 0.9), ("Private room 2", _S, 0.5, 1.2, 1.4, 0.9),
+             ("Private room 2", _E, 0.5, 1.0, 1.4, 0.9), ("Private room 3", (1.0, 0.8), 0.5, 1.5, 1.4, 0.9),
+             ("Private room 3", _N, 0.5, 1.0, 1.4, 0.9)]
     return FloorPlan("syn_house", (PlanStorey(0.0, 2.7, "Ground floor"),), tuple(rooms), tuple(doors),
-                     interior_thickness=t, exterior_thickness=0.3)
+                     interior_thickness=t, exterior_thickness=0.3, windows=tuple(_windows(rooms, specs)))
 
 
 def _hexagon_hall():
@@ -337,7 +392,7 @@ def _changed_walls(model_a: BuildingModel, model_b: BuildingModel, share: float 
 
 def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
            target_points: Optional[int] = None, scale: float = 1.0, clutter: bool = True,
-           furnish_params: FurnishParams = FurnishParams(), progress=None,
+           furnish_params: FurnishParams = FurnishParams(), surroundings: bool = True, progress=None,
            should_stop=None) -> SyntheticScene:
     """Build a preset synthetic scene (plan, true model, variants, simulated scan).
 
@@ -357,6 +412,9 @@ def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
     clutter : bool
         Furnish the rooms (shelves, cabinets, tables) or leave them empty.
     furnish_params : FurnishParams
+    surroundings : bool
+        Ground, trees and a neighbour's facade outside the building, seen through windows
+        and open exterior doors (:attr:`ScanParams.surroundings`).
     progress, should_stop : callbacks (see :class:`engine.progress.Progress`)
 
     Returns
@@ -371,7 +429,7 @@ def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
     plans = preset_plans(name)
     return scene_from_plans(plans, name=name, seed=seed, noise=noise, target_points=target_points,
                             scale=scale, clutter=clutter, furnish_params=furnish_params,
-                            scanned="changed" if name == "change_demo" else "truth",
+                            surroundings=surroundings, scanned="changed" if name == "change_demo" else "truth",
                             progress=progress, should_stop=should_stop)
 
 
@@ -379,7 +437,7 @@ def scene_from_plans(plans: Mapping[str, FloorPlan], *, name: Optional[str] = No
                      noise: Union[str, float] = "tls", target_points: Optional[int] = None,
                      scale: float = 1.0, clutter: bool = True,
                      furnish_params: FurnishParams = FurnishParams(), scanned: str = "truth",
-                     progress=None, should_stop=None) -> SyntheticScene:
+                     surroundings: bool = True, progress=None, should_stop=None) -> SyntheticScene:
     """A synthetic scene from floor plans: ``plans["truth"]`` is the true building, the
     other entries are variants; ``plans[scanned]`` is the building that is scanned.
 
@@ -397,7 +455,7 @@ def scene_from_plans(plans: Mapping[str, FloorPlan], *, name: Optional[str] = No
     target = int(target_points) if target_points is not None else int(round(DEFAULT_POINTS * scale))
     if not 0 < target <= MAX_POINTS:
         raise InputError(f"target_points must be between 1 and {MAX_POINTS:,}, not {target:,}")
-    params = scan_params_for(noise, target)
+    params = replace(scan_params_for(noise, target), surroundings=bool(surroundings))
     ss = np.random.SeedSequence(int(seed))
     rng_furnish, rng_scan = (np.random.default_rng(s) for s in ss.spawn(2))
     timings = {}

@@ -1,16 +1,19 @@
 """Scan simulation: ray casting against the true geometry of a floor plan.
 
-The scene is a triangle mesh of every surface a scanner inside the building can see: the
-floor, ceiling and wall faces of each room (with open door openings cut out, plus the
-jambs, head and threshold of each opening), and the clutter boxes. Rays leave each scanner
-position on a regular spherical grid (azimuth × elevation, one angular step), so the point
-density falls off with range as in a real scan. The range gets Gaussian noise of σ along
-the ray. Each point carries the label of the surface it hit (wall, floor, ceiling,
-clutter).
+The scene is a triangle mesh (:mod:`engine.synthetic.mesh`, whose names this module
+re-exports) of every surface a scanner inside the building can see: floors, ceilings and
+wall faces of each room with the holes of doors and windows and their reveals, window
+glazing, closed door leaves, the clutter boxes and, through windows and open exterior
+doors, the surroundings. Rays leave each scanner position on a regular spherical grid
+(azimuth × elevation, one angular step), so the point density falls off with range as in
+a real scan. Glazing is partly transparent: a ray hitting it returns a point with
+probability ``ScanParams.glass_return`` and otherwise goes on through the pane. The range
+gets Gaussian noise of σ along the ray. Each point carries the label of the surface it hit
+(LABEL_*: wall, floor, ceiling, clutter, outside, glass, door).
 
 Terrestrial mode: one or more positions per scanned room (more for big or long rooms),
 away from walls and furniture. Mobile mode: positions every ``path_step`` along a walk
-through every scanned room and the doors between them.
+through every scanned room and the open doors between them.
 """
 from __future__ import annotations
 
@@ -21,20 +24,43 @@ from typing import Optional
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, Point
+from shapely.geometry import Point
 from shapely.ops import unary_union
 
 from ..errors import InputError, MissingDependencyError
 from ..pointcloud import PointCloud
 from ..progress import Progress
-from .plan import FloorPlan, PlanGeometry, _edge_frame, plan_geometry
+from .mesh import (  # noqa: F401  (re-exported: the scene mesh lives in .mesh)
+    DOOR_LEAF_RECESS,
+    DOOR_LEAF_THICKNESS,
+    LABEL_CEILING,
+    LABEL_CLUTTER,
+    LABEL_DOOR,
+    LABEL_FLOOR,
+    LABEL_GLASS,
+    LABEL_NAMES,
+    LABEL_OUTSIDE,
+    LABEL_WALL,
+    TABLE_LEG,
+    TABLE_LEG_INSET,
+    TABLE_TOP,
+    SceneMesh,
+    _intervals_on_edge,
+    _MeshBuilder,
+    build_scene_mesh,
+)
+from .plan import FloorPlan, PlanGeometry, plan_geometry
 
 __all__ = [
     "LABEL_WALL",
     "LABEL_FLOOR",
     "LABEL_CEILING",
     "LABEL_CLUTTER",
+    "LABEL_OUTSIDE",
+    "LABEL_GLASS",
+    "LABEL_DOOR",
     "LABEL_NAMES",
+    "DEFAULT_REFLECTANCE",
     "ScanParams",
     "SceneMesh",
     "ScanResult",
@@ -44,25 +70,14 @@ __all__ = [
     "scan_mesh",
 ]
 
+DEFAULT_REFLECTANCE = (0.6, 0.35, 0.8, 0.45, 0.3, 0.1, 0.5)
+"""Reflectance of each label (wall, floor, ceiling, clutter, outside, glass, door), 0–1."""
+GLASS_PASSES = 6
+"""A ray goes through at most this many panes; one still on glass after that returns nothing."""
+GLASS_STEP = 1e-4
+"""A ray that goes through a pane is cast again from this far beyond it, metres."""
+
 log = logging.getLogger(__name__)
-
-LABEL_WALL = 0
-"""Truth label of points on walls (door jambs and heads included)."""
-LABEL_FLOOR = 1
-"""Truth label of points on floors (door thresholds included)."""
-LABEL_CEILING = 2
-"""Truth label of points on ceilings."""
-LABEL_CLUTTER = 3
-"""Truth label of points on furniture."""
-LABEL_NAMES = ("wall", "floor", "ceiling", "clutter")
-"""Name of each label value."""
-TABLE_TOP = 0.04
-"""Thickness of a table top, metres."""
-TABLE_LEG = 0.05
-"""Side of a table leg's square section, metres."""
-TABLE_LEG_INSET = 0.1
-"""Distance of a table leg from the table's corner (along the diagonal), metres."""
-
 
 @dataclass(frozen=True)
 class ScanParams:
@@ -106,35 +121,22 @@ class ScanParams:
     dropped, metres."""
     path_clutter_clearance: float = 0.1
     """Mobile mode: walk positions closer than this to furniture are dropped, metres."""
-    reflectance: tuple = (0.6, 0.35, 0.8, 0.45)
-    """Simulated reflectance of walls, floors, ceilings and clutter (0–1): a point's
-    ``intensity`` is its surface's reflectance times the cosine of the incidence angle."""
+    reflectance: tuple = DEFAULT_REFLECTANCE
+    """Simulated reflectance per label (0–1; walls, floors, ceilings, clutter, outside,
+    glass, door leaves): a point's ``intensity`` is its surface's reflectance times the
+    cosine of the incidence angle. A shorter tuple is completed from
+    :data:`DEFAULT_REFLECTANCE`."""
+    glass_return: float = 0.07
+    """Share of the rays hitting window glazing (LABEL_GLASS triangles) that return a
+    point there (0–1); the others pass through the pane."""
+    surroundings: bool = True
+    """Put the outer wall faces, a ground plane and outdoor boxes around the building
+    (:func:`~engine.synthetic.mesh.build_scene_mesh`), seen through windows and open
+    exterior doors."""
     pilot_rays: int = 60_000
     """Rays of the pilot scan that measures the hit rate for ``target_points``."""
     batch_rays: int = 1_000_000
     """Rays cast per call to the ray caster (bounds the memory)."""
-
-
-@dataclass(frozen=True)
-class SceneMesh:
-    """Triangle mesh of the visible surfaces.
-
-    Attributes
-    ----------
-    vertices : (n, 3) float64, metres
-    triangles : (m, 3) int32
-    labels : (m,) int32 — LABEL_* of each triangle
-    wall_index : (m,) int32 — index of the wall piece (``PlanGeometry.walls``) a wall
-        triangle lies on, -1 for other triangles
-    room_index : (m,) int32 — index of the room (``FloorPlan.rooms``) whose face it is,
-        -1 for door reveals and clutter
-    """
-
-    vertices: np.ndarray
-    triangles: np.ndarray
-    labels: np.ndarray
-    wall_index: np.ndarray
-    room_index: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -152,144 +154,6 @@ class ScanResult:
     wall_index: np.ndarray
     room_index: np.ndarray
     angular_step: float
-
-
-class _MeshBuilder:
-    def __init__(self):
-        self.v, self.t, self.lab, self.wall, self.room = [], [], [], [], []
-        self.nv = 0
-
-    def add(self, verts, tris, label, wall=-1, room=-1):
-        verts = np.asarray(verts, dtype=np.float64).reshape(-1, 3)
-        tris = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
-        if len(tris) == 0:
-            return
-        self.v.append(verts)
-        self.t.append(tris + self.nv)
-        self.nv += len(verts)
-        m = len(tris)
-        self.lab.append(np.full(m, label, np.int32))
-        self.wall.append(np.full(m, wall, np.int32))
-        self.room.append(np.full(m, room, np.int32))
-
-    def quad(self, a, b, c, d, label, wall=-1, room=-1):
-        self.add([a, b, c, d], [[0, 1, 2], [0, 2, 3]], label, wall, room)
-
-    def polygon(self, poly, z, label, room=-1, wall=-1):
-        tris = shapely.constrained_delaunay_triangles(poly)
-        vs = []
-        for tri in getattr(tris, "geoms", []):
-            c = np.asarray(tri.exterior.coords)[:3]
-            vs.append(np.column_stack([c, np.full(3, z)]))
-        if vs:
-            v = np.vstack(vs)
-            self.add(v, np.arange(len(v)).reshape(-1, 3), label, wall, room)
-
-    def box(self, footprint, z0, z1, label):
-        c = np.asarray(footprint.exterior.coords)[:4]
-        lo = np.column_stack([c, np.full(4, z0)])
-        hi = np.column_stack([c, np.full(4, z1)])
-        v = np.vstack([lo, hi])
-        tris = [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]]
-        for k in range(4):
-            a, b = k, (k + 1) % 4
-            tris += [[a, b, 4 + b], [a, 4 + b, 4 + a]]
-        self.add(v, tris, label)
-
-    def build(self) -> SceneMesh:
-        return SceneMesh(np.vstack(self.v), np.vstack(self.t).astype(np.int32), np.concatenate(self.lab),
-                         np.concatenate(self.wall), np.concatenate(self.room))
-
-
-def _intervals_on_edge(geoms, p, q, tol=1e-4):
-    """For each geometry, the [u0, u1] stretch of edge p→q it covers (or None)."""
-    d, _, length = _edge_frame(p, q)
-    line = LineString([p, q])
-    out = []
-    for g in geoms:
-        hit = g.buffer(tol).intersection(line)
-        if hit.is_empty or hit.length < 1e-3:
-            out.append(None)
-            continue
-        cs = np.vstack([np.asarray(h.coords) for h in getattr(hit, "geoms", [hit])])
-        u = (cs - np.asarray(p)) @ d
-        out.append((max(float(u.min()), 0.0), min(float(u.max()), length)))
-    return out
-
-
-def build_scene_mesh(plan: FloorPlan, geometry: Optional[PlanGeometry] = None, *,
-                     clutter: bool = True) -> SceneMesh:
-    """The triangle mesh a scanner inside ``plan`` sees (see module doc).
-
-    Parameters
-    ----------
-    plan : FloorPlan
-    geometry : PlanGeometry, optional
-        :func:`plan_geometry` of the plan, when already computed.
-    clutter : bool
-        Include the plan's clutter boxes.
-    """
-    g = plan_geometry(plan) if geometry is None else geometry
-    mb = _MeshBuilder()
-    open_doors = [(door, fp, w) for door, fp, w in g.doors if door.open]
-    for i, room in enumerate(plan.rooms):
-        poly = room.shape
-        z0, z1 = plan.floor_z(room), plan.ceiling_z(room)
-        mb.polygon(poly, z0, LABEL_FLOOR, i)
-        mb.polygon(poly, z1, LABEL_CEILING, i)
-        walls = [k for k, w in enumerate(g.walls) if w.storey == room.storey]
-        doors = [(door, fp, w) for door, fp, w in open_doors if room.name in door.rooms]
-        coords = np.asarray(poly.exterior.coords)
-        for p, q in zip(coords[:-1], coords[1:]):
-            d, _, length = _edge_frame(p, q)
-            w_iv = _intervals_on_edge([g.walls[k].polygon for k in walls], p, q)
-            d_iv = _intervals_on_edge([fp for _, fp, _ in doors], p, q)
-            cuts = {0.0, length}
-            for iv in w_iv + d_iv:
-                if iv is not None:
-                    cuts.update(iv)
-            cuts = np.array(sorted(c for c in cuts if -1e-9 <= c <= length + 1e-9))
-            for a, b in zip(cuts[:-1], cuts[1:]):
-                if b - a < 1e-6:
-                    continue
-                mid = (a + b) / 2
-                wall = -1
-                for k, iv in zip(walls, w_iv):
-                    if iv is not None and iv[0] - 1e-9 <= mid <= iv[1] + 1e-9:
-                        wall = k
-                        break
-                zb = z0
-                for (door, _, _), iv in zip(doors, d_iv):
-                    if iv is not None and iv[0] - 1e-9 <= mid <= iv[1] + 1e-9 and iv[1] - iv[0] > door.width / 2:
-                        zb = max(zb, z0 + door.height)
-                if zb >= z1 - 1e-9:
-                    continue
-                pa, pb = np.asarray(p) + d * a, np.asarray(p) + d * b
-                mb.quad([*pa, zb], [*pb, zb], [*pb, z1], [*pa, z1], LABEL_WALL, wall, i)
-    for door, fp, w in open_doors:  # reveals: jambs, head and threshold
-        z0 = plan.floor_z(plan.room(door.rooms[0]))
-        zh = z0 + door.height
-        c = np.asarray(fp.exterior.coords)[:4]
-        for a, b in ((1, 2), (3, 0)):
-            mb.quad([*c[a], z0], [*c[b], z0], [*c[b], zh], [*c[a], zh], LABEL_WALL, w)
-        mb.polygon(fp, zh, LABEL_WALL, wall=w)
-        mb.polygon(fp, z0, LABEL_FLOOR)
-    if clutter:
-        for item in plan.clutter:
-            room = plan.room(item.room)
-            zf = plan.floor_z(room) + item.z0
-            fp = item.footprint()
-            if item.kind == "table":
-                mb.box(fp, zf + item.size[2] - TABLE_TOP, zf + item.size[2], LABEL_CLUTTER)
-                cs = np.asarray(fp.exterior.coords)[:4]
-                ctr = cs.mean(axis=0)
-                for cc in cs:
-                    lc = cc + (ctr - cc) / np.linalg.norm(ctr - cc) * TABLE_LEG_INSET
-                    mb.box(Point(lc).buffer(TABLE_LEG / 2, cap_style="square"), zf,
-                           zf + item.size[2] - TABLE_TOP, LABEL_CLUTTER)
-            else:
-                mb.box(fp, zf, zf + item.size[2], LABEL_CLUTTER)
-    return mb.build()
 
 
 # ----------------------------------------------------------------------------- positions
@@ -384,6 +248,8 @@ def scanner_positions(plan: FloorPlan, params: ScanParams = ScanParams(),
     # mobile: depth-first walk over rooms joined by open doors
     links = {}
     for door, fp, _ in g.doors:
+        if len(door.rooms) != 2:
+            continue  # an exterior door leads nowhere the walk goes
         a, b = door.rooms
         if door.open and a in per_room and b in per_room:
             c = np.asarray(fp.centroid.coords[0])
@@ -419,7 +285,7 @@ def scanner_positions(plan: FloorPlan, params: ScanParams = ScanParams(),
     for s in range(len(plan.storeys)):
         rooms = [r.shape.buffer(-params.path_wall_clearance) for r in plan.rooms if r.storey == s]
         doors = [fp.buffer(params.path_wall_clearance / 4) for door, fp, _ in g.doors if door.open
-                 and plan.room(door.rooms[0]).storey == s]
+                 and len(door.rooms) == 2 and plan.room(door.rooms[0]).storey == s]
         tall = [c.footprint().buffer(params.path_clutter_clearance) for c in plan.clutter
                 if plan.room(c.room).storey == s]
         region = unary_union(rooms + doors)
@@ -482,11 +348,41 @@ def _make_scene(mesh: SceneMesh):
 
 
 def _cast(scene, o3d, origin, dirs):
+    """Hit distance (inf: none) and triangle of each ray; ``origin`` (3,) or (n, 3)."""
     rays = np.empty((len(dirs), 6), np.float32)
     rays[:, :3] = origin
     rays[:, 3:] = dirs
     ans = scene.cast_rays(o3d.core.Tensor(rays))
     return ans["t_hit"].numpy().astype(np.float64), ans["primitive_ids"].numpy().astype(np.int64)
+
+
+def _cast_through(scene, o3d, origin, dirs, glass, p_return, rng):
+    """Like :func:`_cast`, but a ray that hits a glass triangle (``glass`` (m,) bool, or None
+    when the mesh has none) returns there only with probability ``p_return`` (draws from
+    ``rng``); otherwise it is cast again from :data:`GLASS_STEP` beyond the pane, for at most
+    :data:`GLASS_PASSES` panes."""
+    t, prim = _cast(scene, o3d, origin, dirs)
+    if glass is None:
+        return t, prim
+    hit = np.isfinite(t)
+    on = np.zeros(len(t), bool)
+    on[hit] = glass[prim[hit]]
+    for _ in range(GLASS_PASSES):
+        idx = np.flatnonzero(on)
+        if len(idx) == 0:
+            return t, prim
+        on[:] = False
+        go = idx[rng.random(len(idx)) >= p_return]
+        if len(go) == 0:
+            return t, prim
+        start = t[go] + GLASS_STEP
+        t2, p2 = _cast(scene, o3d, origin + dirs[go] * start[:, None], dirs[go])
+        t[go] = start + t2
+        prim[go] = p2
+        h = np.isfinite(t2)
+        on[go[h]] = glass[p2[h]]
+    t[on] = np.inf  # still on a pane after GLASS_PASSES of them
+    return t, prim
 
 
 def simulate_scan(plan: FloorPlan, params: ScanParams = ScanParams(), *,
@@ -521,7 +417,7 @@ def simulate_scan(plan: FloorPlan, params: ScanParams = ScanParams(), *,
         When there is no scanner position (every room unscanned).
     """
     g = plan_geometry(plan) if geometry is None else geometry
-    mesh = build_scene_mesh(plan, g, clutter=clutter)
+    mesh = build_scene_mesh(plan, g, clutter=clutter, surroundings=params.surroundings)
     pos = scanner_positions(plan, params, g) if positions is None else np.asarray(positions, float).reshape(-1, 3)
     if len(pos) == 0:
         raise InputError(f"plan {plan.name!r}: no scanner position (no room is scanned)")
@@ -536,10 +432,13 @@ def scan_mesh(mesh: SceneMesh, positions: np.ndarray, params: ScanParams = ScanP
 
     Parameters
     ----------
-    mesh : SceneMesh — ``labels`` index ``params.reflectance``.
+    mesh : SceneMesh — ``labels`` index ``params.reflectance``; LABEL_GLASS triangles
+        return a point for a share ``params.glass_return`` of the rays hitting them and let
+        the others through.
     positions : (k, 3) float64 — scanner origins, metres (k ≥ 1).
     params : ScanParams (angular step or target point count, ranges, noise).
-    rng : numpy Generator, int or None — azimuth offsets and range noise.
+    rng : numpy Generator, int or None — azimuth offsets, range noise and which rays
+        glazing returns (the pilot scan for ``target_points`` uses its own fixed draws).
     source : text stored as the cloud's source.
 
     Returns
@@ -555,13 +454,16 @@ def scan_mesh(mesh: SceneMesh, positions: np.ndarray, params: ScanParams = ScanP
     prog(0.02, "ray casting")
     offsets = rng.uniform(0.0, 2 * math.pi, len(pos))
     step = params.angular_step
+    glass = mesh.labels == LABEL_GLASS
+    glass = glass if glass.any() else None
     if params.target_points:
+        pilot_rng = np.random.default_rng(0)
         span = params.max_elevation - params.min_elevation
         pilot = math.sqrt(len(pos) * 2 * math.pi * span / params.pilot_rays)
         hits = rays = 0
         dirs = _directions(pilot, params, 0.0)
         for o in pos:
-            t, _ = _cast(scene, o3d, o, dirs)
+            t, _ = _cast_through(scene, o3d, o, dirs, glass, params.glass_return, pilot_rng)
             hits += int(np.count_nonzero((t >= params.min_range) & (t <= params.max_range)))
             rays += len(dirs)
         frac = max(hits / max(rays, 1), 1e-3)
@@ -569,13 +471,14 @@ def scan_mesh(mesh: SceneMesh, positions: np.ndarray, params: ScanParams = ScanP
     tri = mesh.vertices[mesh.triangles]
     tri_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     tri_n /= np.maximum(np.linalg.norm(tri_n, axis=1, keepdims=True), 1e-12)
-    refl = np.asarray(params.reflectance, dtype=np.float64)
+    refl = tuple(params.reflectance)
+    refl = np.asarray(refl + DEFAULT_REFLECTANCE[len(refl):], dtype=np.float64)
     xyz, lab, wall, room, sidx, inten = [], [], [], [], [], []
     for k, o in enumerate(pos):
         dk = _directions(step, params, float(offsets[k]))
         for s0 in range(0, len(dk), params.batch_rays):
             dd = dk[s0:s0 + params.batch_rays]
-            t, prim = _cast(scene, o3d, o, dd)
+            t, prim = _cast_through(scene, o3d, o, dd, glass, params.glass_return, rng)
             ok = np.isfinite(t) & (t >= params.min_range) & (t <= params.max_range)
             t, prim, dd = t[ok], prim[ok], dd[ok]
             r = t + rng.normal(0.0, params.sigma, len(t))

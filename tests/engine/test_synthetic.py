@@ -17,7 +17,10 @@ from engine.model import BuildingModel, ShapeType
 from engine.synthetic import (
     LABEL_CEILING,
     LABEL_CLUTTER,
+    LABEL_DOOR,
     LABEL_FLOOR,
+    LABEL_GLASS,
+    LABEL_OUTSIDE,
     LABEL_WALL,
     PRESETS,
     Door,
@@ -85,8 +88,9 @@ def test_truth_is_consistent(name):
             wall = _fp(m[r.via])
             for sid in (r.a, r.b):
                 assert wall.buffer(1e-3).intersection(_fp(m[sid]).boundary).length > 0.05, (name, key, r)
+        # (an exterior door joins its room to the storey's exterior, which its wall bounds too)
         room_pairs = {frozenset((r.a, r.b)) for r in m.relations_of("adjacency")
-                      if m[r.a].type == m[r.b].type == ShapeType.INTERIOR}
+                      if m[r.a].is_space and m[r.b].is_space}
         # doors lie inside a wall the two rooms they join both touch
         for d in m.doors:
             wall = m[d.parent]
@@ -95,6 +99,7 @@ def test_truth_is_consistent(name):
             conn = [r for r in m.relations_of("connectivity") if r.via == d.id]
             assert len(conn) == 1
             assert frozenset((conn[0].a, conn[0].b)) in room_pairs
+            assert frozenset(d.attributes["spaces"]) == frozenset((conn[0].a, conn[0].b))
             assert d.attributes["width"] == pytest.approx(
                 np.sort(np.linalg.norm(np.diff(d.footprint(), axis=0, append=d.footprint()[:1]), axis=1))[-1])
         # the scanned surfaces: every wall face lies on a wall piece, every interior wall
@@ -130,8 +135,10 @@ def test_walls_separate_the_office_rooms():
     expected = {frozenset(("Corridor", f"Room {k}")) for k in range(1, 8)}
     expected |= {frozenset((f"Room {a}", f"Room {a + 1}")) for a in (1, 2, 3, 5, 6)}
     assert pairs == expected
-    assert len(m.doors) == 8
+    assert len([d for d in m.doors if len(d.attributes["rooms"]) == 2]) == 8
+    assert len([d for d in m.doors if len(d.attributes["rooms"]) == 1]) == 1  # the entrance
     ext = [w for w in m.walls if w.attributes["exterior"]]
+    assert all(w.attributes["external"] == w.attributes["exterior"] for w in m.walls)
     assert all(w.attributes["thickness"] == pytest.approx(0.3) for w in ext)
     inner = [w for w in m.walls if not w.attributes["exterior"]]
     assert all(w.attributes["thickness"] == pytest.approx(0.15) for w in inner)
@@ -181,7 +188,10 @@ def test_points_lie_on_true_surfaces(case, office):
     assert sigma == {"tls": 0.005, "mobile": 0.02}.get(noise, 0.01)
     lab = c.fields["label"]
     assert c.fields["label"].dtype == np.int32
-    assert set(np.unique(lab)) == {LABEL_WALL, LABEL_FLOOR, LABEL_CEILING, LABEL_CLUTTER}
+    expected = {LABEL_WALL, LABEL_FLOOR, LABEL_CEILING, LABEL_CLUTTER}
+    expected |= {LABEL_OUTSIDE, LABEL_GLASS} if sc.plan.windows else set()  # through windows, on glazing
+    expected |= {LABEL_DOOR} if not all(d.open for d in sc.plan.doors) else set()  # closed door leaves
+    assert set(np.unique(lab)) == expected
     # range residual along each ray against the *truth model* (not the simulator's mesh):
     # points of walls/floors/ceilings in the room of their own scanner
     scene, o3d = _interior_mesh_scene(m)

@@ -1,0 +1,788 @@
+"""Doors, doorless openings and windows in reconstructed wall runs (docs/method.md §7.3).
+
+Each wall run is looked at in its own frame: ``u`` along ``axis_line`` (metres from its
+start), ``v`` across (+ towards the left side, ``n`` = axis rotated +90°), ``z`` up. One
+pass over a 2-D grid of the cloud gives each wall the points near it; each wall then gets
+rasters in its ``(u, z)`` plane (:attr:`OpeningParams.cell`): points on each *face*; points
+*inside* the thickness (jambs, heads, sills, thresholds, glazing, recessed door leaves);
+points *in front* of each face (furniture); and, with scanner positions, a ray test — the
+segment from a scanner to a point beyond the wall crosses the face plane in a cell *seen
+through*; a point just in front of the face, projected from the scanner, *shadows* a cell.
+
+A gap is where a face has no points while it is observed around it (density-adaptive
+kernels); on interior walls seen from both sides it must be a gap on both faces. Gaps are
+cut to rectangles, merged when noise split them, measured from their jambs, lintel and
+sill (reveal planes, else where the face points end) and classified: reaching the floor
+with wall above, a door (wider than :attr:`OpeningParams.max_door_width`, or up to the
+ceiling: a doorless "opening"); wall below and above, a window. A gap is kept when the
+evidence says hole, not shadow: rays through it, points beyond an exterior wall, the gap on
+both faces, floor points through the thickness, reveal points at its edges; and no
+furniture shadowing it (the ray test; without scanners, points in front covering it). A
+door-sized gap on one face with a planar leaf a few centimetres behind it is a closed door
+(``"open": False``).
+
+Cost: the grid pass is linear in the points, a wall's rasters follow its area, and the ray
+test visits per scanner the points in the angular sector of each wall face it sees.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Mapping, Optional, Sequence
+
+import numpy as np
+from scipy import ndimage
+
+from ..errors import InputError
+from ..geometry.boxes import min_area_box
+from ..model import Polyhedron, Shape, ShapeType, Storey
+from ..quantities import Count, Factor, Metres, Ratio
+
+__all__ = ["OpeningParams", "detect_openings"]
+
+
+@dataclass(frozen=True)
+class OpeningParams:
+    """Thresholds of :func:`detect_openings` (SI units: metres, shares 0–1)."""
+
+    cell: Metres = 0.05
+    """Raster cell along the wall and in height, metres."""
+    reach: Metres = 1.0
+    """Points up to this far in front of / beyond a face are gathered for a wall; furniture
+    up to this far in front of a face shadows it, metres."""
+    grid: Metres = 0.5
+    """Cell of the 2-D grid that assigns points to walls, metres."""
+    face_search: Metres = 0.08
+    """A face is looked for this far around its nominal place (axis ± thickness/2), metres."""
+    face_sigmas: Factor = 2.5
+    """Face tolerance in units of the measured range noise σ."""
+    face_tolerance: tuple = (0.015, 0.06)
+    """Lower and upper bound of the face tolerance, metres."""
+    edge_band: Metres = 0.08
+    """Rows this close to the floor or ceiling are left out of the face rasters, metres."""
+    kernel_points: Factor = 6.0
+    """The presence kernel grows (15 → 55 cm) until it expects this many face points."""
+    presence_share: Ratio = 0.25
+    """A face cell is present when its kernel holds at least one point and this share of
+    the kernel's usual count around it (the local face density)."""
+    density_window: Metres = 1.0
+    """Side of the window of the local face density, metres."""
+    unobserved_run: Metres = 4.0
+    """A face without points (and no rays through it) over a longer stretch is unobserved
+    there, metres."""
+    rect_share: Ratio = 0.55
+    """Rows / columns of a gap's bounding box less empty than this are cut off."""
+    merge_gap: Metres = 0.2
+    """Gaps this close along the wall, overlapping in height, are one gap, metres."""
+    min_door_width: Metres = 0.6
+    """Narrower gaps reaching the floor are not doors, metres."""
+    max_door_width: Metres = 2.0
+    """Wider gaps reaching the floor are doorless openings, metres."""
+    min_door_height: Metres = 1.7
+    """Lower gaps reaching the floor are not doors, metres."""
+    max_opening_width: Metres = 8.0
+    """Wider gaps are not openings, metres."""
+    min_window_width: Metres = 0.3
+    """Narrower gaps above the floor are not windows, metres."""
+    min_window_height: Metres = 0.3
+    """Lower gaps above the floor are not windows, metres."""
+    floor_tolerance: Metres = 0.2
+    """A gap starting this close to the floor reaches the floor, metres."""
+    ceiling_tolerance: Metres = 0.15
+    """A gap ending this close to the ceiling reaches the ceiling, metres."""
+    min_seen_through: Ratio = 0.15
+    """Share of a gap's cells crossed by scanner rays that makes it seen through."""
+    max_occluded: Ratio = 0.4
+    """Share of a gap's cells shadowed by points in front (and not seen through) that makes
+    it an occlusion."""
+    max_front_cover: Ratio = 0.3
+    """Without scanner positions: share of a gap covered by points in front of the face
+    that makes it an occlusion."""
+    min_scan_points: Count = 30
+    """A scanner sees a face (and takes part in its ray test) when it measured this many
+    points on it (fewer, down to 5, for a scanner with fewer than 200 × as many points)."""
+    edge_search: Metres = 0.35
+    """A gap's edges are looked for this far beyond its empty cells, metres."""
+    cue_share: Ratio = 0.3
+    """Share of a door's width with floor points inside the thickness for the full cue."""
+    reveal_share: Ratio = 0.5
+    """Share of a gap's edges (jambs, head, sill) with reveal points for the full cue."""
+    min_confidence: Ratio = 0.3
+    """Gaps with less confidence are dropped."""
+    leaf_depth: tuple = (0.02, 0.10)
+    """A closed door leaf stands this far behind a face (inside the thickness), metres."""
+    leaf_share: Ratio = 0.5
+    """Share of a closed door's cells that must hold leaf points."""
+
+
+# ----------------------------------------------------------------------------- wall frames
+@dataclass
+class _Wall:
+    """A wall run's frame: start ``p0``, unit axis ``d`` and normal ``n`` (left), metres."""
+
+    shape: Shape
+    p0: np.ndarray
+    d: np.ndarray
+    n: np.ndarray
+    length: float
+    thickness: float
+    floor_z: float
+    ceiling_z: float
+    external: bool
+    sides: tuple
+    faces: np.ndarray = None  # (2,) v of the left and right face, metres
+
+
+def _storey_of(shape: Shape, storeys: Sequence[Storey]) -> tuple[float, float]:
+    """Floor and ceiling z of a wall's storey (by index, else position; else its own z)."""
+    st = next((st for st in storeys if st.index == shape.storey), None)
+    st = st or (storeys[shape.storey] if 0 <= shape.storey < len(storeys) else None)
+    return (float(st.floor_z), float(st.ceiling_z)) if st else tuple(float(z) for z in shape.bounds[:, 2])
+
+
+def _frame(shape: Shape, storeys: Sequence[Storey]) -> _Wall:
+    """The wall's frame from ``axis_line`` / ``thickness`` (else its footprint's box)."""
+    a = shape.attributes
+    axis = a.get("axis_line")
+    if axis is not None:
+        try:
+            axis, thick = np.asarray(axis, dtype=np.float64).reshape(2, 2), float(a.get("thickness", 0.0))
+        except (TypeError, ValueError):
+            raise InputError(f"wall {shape.id!r}: axis_line must be [[x0, y0], [x1, y1]], "
+                             "thickness a number") from None
+    else:
+        origin, axes, size = min_area_box(shape.geometry.vertices)
+        x, y = axes[0, :2], axes[1, :2]
+        mid = origin[:2] + y * size[1] / 2
+        axis = np.stack([mid, mid + x * size[0]])
+        thick = float(a.get("thickness", size[1]))
+    if not (np.all(np.isfinite(axis)) and math.isfinite(thick) and thick > 0):
+        raise InputError(f"wall {shape.id!r}: axis_line and thickness must be finite, thickness > 0")
+    length = float(np.hypot(*(axis[1] - axis[0])))
+    if length <= 0:
+        raise InputError(f"wall {shape.id!r}: axis_line has zero length")
+    d = (axis[1] - axis[0]) / length
+    sides = (tuple(a.get("sides") or ()) + (None, None))[:2]
+    return _Wall(shape, axis[0], d, np.array([-d[1], d[0]]), length, thick, *_storey_of(shape, storeys),
+                 bool(a.get("external", False)), sides)
+
+
+def _bucket(xyz: np.ndarray, walls: list[_Wall], reach: float, cell: float) -> list[np.ndarray]:
+    """Indices of the points near each wall (within ``reach`` of a face, its storey ± reach):
+    one sort of the points by 2-D grid cell, then per wall the cells its widened footprint
+    covers."""
+    xy = xyz[:, :2]
+    lo = xy.min(axis=0)
+    ij = np.floor((xy - lo) / cell).astype(np.int64)
+    nx, ny = ij.max(axis=0) + 1
+    key = ij[:, 0] * ny + ij[:, 1]
+    order = np.argsort(key, kind="stable")
+    skey, h, out = key[order], cell * 0.7072, []
+    for w in walls:
+        half = w.thickness / 2 + reach
+        ends = np.array([w.p0 - w.d * reach, w.p0 + w.d * (w.length + reach)])
+        corners = np.vstack([ends + w.n * half, ends - w.n * half])
+        i0, j0 = np.maximum(np.floor((corners.min(axis=0) - lo) / cell).astype(int), 0)
+        i1, j1 = np.minimum(np.floor((corners.max(axis=0) - lo) / cell).astype(int), [nx - 1, ny - 1])
+        if i1 < i0 or j1 < j0:
+            out.append(np.zeros(0, np.int64))
+            continue
+        gi, gj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1), indexing="ij")
+        gi, gj = gi.ravel(), gj.ravel()
+        c = lo + (np.column_stack([gi, gj]) + 0.5) * cell - w.p0
+        uc, vc = c @ w.d, c @ w.n
+        keep = (np.abs(vc) <= half + h) & (uc >= -reach - h) & (uc <= w.length + reach + h)
+        keys = gi[keep] * ny + gj[keep]
+        s, e = np.searchsorted(skey, keys, "left"), np.searchsorted(skey, keys, "right")
+        cnt = e - s  # the cells' runs of sorted points, concatenated
+        idx = order[np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt) + np.repeat(s, cnt)]
+        p = xyz[idx]
+        rel = p[:, :2] - w.p0
+        u, v = rel @ w.d, rel @ w.n
+        ok = ((u >= 0) & (u < w.length) & (np.abs(v) <= half)
+              & (p[:, 2] >= w.floor_z - reach) & (p[:, 2] <= w.ceiling_z + reach))
+        out.append(np.sort(idx[ok]))
+    return out
+
+
+# ----------------------------------------------------------------------------- faces
+def _face_fit(r: np.ndarray, u: np.ndarray, z: np.ndarray, length: float,
+              window: float) -> tuple[float, float, int]:
+    """Offset and robust spread (metres) of the face in residuals ``r`` (within ``window``
+    of the nominal face) of points at ``u`` along the wall, height ``z``; the offset is 0 and
+    the count 0 when the peak covers less than a third of the wall (25 cm squares): a door
+    leaf, the jambs of an outer face never seen, a cupboard side are not the face."""
+    keep = np.abs(r) < window
+    r, u, z = r[keep], u[keep], z[keep]
+    if len(r) < 30:
+        return 0.0, float("nan"), 0
+    bins = np.arange(-window, window + 1e-9, 0.005)
+    hist, _ = np.histogram(r, bins)
+    hist = ndimage.convolve1d(hist, [1, 2, 3, 2, 1], mode="constant")
+    peak = float((bins[:-1] + 0.0025)[int(np.argmax(hist))])
+    near = np.abs(r - peak) < 0.06
+    peak = float(np.median(r[near]))
+    mad = float(np.median(np.abs(r[near] - peak))) * 1.4826
+    on = np.abs(r - peak) < max(0.015, 2.0 * mad)
+    nb, zb = max(1, int(math.ceil(length / 0.25))), np.floor((z - z.min()) / 0.25).astype(np.int64)
+    sq = np.clip((u[on] / 0.25).astype(np.int64), 0, nb - 1) * (zb.max() + 1) + zb[on]
+    if np.count_nonzero(np.bincount(sq) >= 3) < nb * (zb.max() + 1) / 3:
+        return 0.0, float("nan"), 0
+    return peak, mad, int(near.sum())
+
+
+# ----------------------------------------------------------------------------- rasters
+def _box(a: np.ndarray, k: int) -> np.ndarray:
+    """Sum of ``a`` over a k × k window (zero outside)."""
+    return ndimage.uniform_filter(a.astype(np.float64), size=k, mode="constant") * (k * k)
+
+
+def _presence(count: np.ndarray, params: OpeningParams) -> np.ndarray:
+    """Cells where the face is present: the kernel (smallest of 3..11 cells that expects
+    ``kernel_points`` from the local density) holds at least one point and
+    ``presence_share`` of the local density."""
+    big = max(3, int(round(params.density_window / params.cell)) | 1)
+    present = np.zeros(count.shape, bool)
+    chosen = np.zeros(count.shape, bool)
+    for k in (3, 5, 7, 9, 11):
+        box = _box(count, k)
+        occ = _box(box > 0, big)
+        ref = _box(box, big) / np.maximum(occ, 1e-9)
+        pick = ~chosen & ((ref >= params.kernel_points) | (k == 11))
+        present[pick] = (box[pick] >= np.maximum(params.presence_share * ref[pick], 1.0 - 1e-9))
+        chosen |= pick
+    return present
+
+
+def _runs(mask: np.ndarray, bridge: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Starts and stops of the runs of True in ``mask``, across breaks of at most ``bridge``."""
+    idx = np.flatnonzero(mask)
+    if not len(idx):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    cut = np.flatnonzero(np.diff(idx) > bridge + 1)
+    return np.r_[idx[0], idx[cut + 1]], np.r_[idx[cut], idx[-1]] + 1
+
+
+def _longest_run(mask: np.ndarray, bridge: int = 0) -> tuple[int, int]:
+    """[start, stop) of the longest run of True across breaks of at most ``bridge`` False
+    (0, 0 when none)."""
+    a, b = _runs(mask, bridge)
+    if not len(a):
+        return 0, 0
+    k = int(np.argmax(b - a))
+    return int(a[k]), int(b[k])
+
+
+def _observed(cols: list, run: int, window: int) -> list:
+    """Per face, the columns where it is observed: where its points (and rays through it)
+    within ``window`` columns reach 5 % of the densest face's usual count, bridging
+    stretches without them of up to ``run`` columns."""
+    wins = [ndimage.convolve1d(cc, np.ones(window), mode="constant") for cc in cols]
+    ref = max(float(np.percentile(wv, 75)) for wv in wins)
+    out = []
+    for wv in wins:
+        obs = np.zeros(len(wv), bool)
+        for a, b in zip(*_runs(wv >= max(3.0, 0.05 * ref), run)):
+            obs[a:b] = True
+        out.append(obs)
+    return out
+
+
+def _rectangle(mask: np.ndarray, share: float, bridge: int) -> tuple[int, int, int, int]:
+    """The dominant rectangle [c0, c1) x [r0, r1) of a gap component's mask (rows and
+    columns at least ``share`` empty, across short breaks of ``bridge`` cells)."""
+    c0, c1, r0, r1 = 0, mask.shape[0], 0, mask.shape[1]
+    for _ in range(3):
+        cf = mask[:, r0:r1].mean(axis=1) if r1 > r0 else np.zeros(mask.shape[0])
+        a, b = _longest_run(cf >= share, bridge)
+        if b <= a:
+            return 0, 0, 0, 0
+        c0, c1 = a, b
+        rf = mask[c0:c1].mean(axis=0)
+        a, b = _longest_run(rf >= share, bridge)
+        if b <= a:
+            return 0, 0, 0, 0
+        r0, r1 = a, b
+    return c0, c1, r0, r1
+
+
+# ----------------------------------------------------------------------------- per-wall evidence
+@dataclass
+class _Data:
+    """The rasters of one wall: ``(2, nu, nz)`` per side (0 = left, 1 = right), ``(nu, nz)``
+    otherwise; counts of points per cell."""
+
+    face: np.ndarray
+    inside: np.ndarray
+    floor: np.ndarray          # (nu,) floor points inside the thickness
+    front: np.ndarray          # points in front of each face, projected perpendicularly
+    leaf: np.ndarray           # points leaf_depth behind each face
+    through: np.ndarray        # ray test: cells seen through from each side
+    shadow: np.ndarray         # ray test: cells hidden by points in front
+    fu: np.ndarray             # u, z of the face and inside points, metres
+    fz: np.ndarray
+    fcls: np.ndarray           # 0 / 1: on the left / right face, 2: inside the thickness
+    fdev: np.ndarray           # distance from the face (face points), metres
+    scans: list                # per side: face points per scanner
+    rays: bool = False
+
+
+def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, tol: float,
+             p: OpeningParams) -> _Data:
+    c = p.cell
+    nu = max(1, int(math.ceil(w.length / c)))
+    nz = max(1, int(math.ceil((w.ceiling_z - w.floor_z) / c)))
+    pts = xyz[idx]
+    rel = pts[:, :2] - w.p0
+    u, v, z = rel @ w.d, rel @ w.n, pts[:, 2]
+    iu = np.clip((u / c).astype(np.int64), 0, nu - 1)
+    iz = np.floor((z - w.floor_z) / c).astype(np.int64)
+    inz = (iz >= 0) & (iz < nz)
+    flat = iu * nz + np.clip(iz, 0, nz - 1)
+    core = (z > w.floor_z + p.edge_band) & (z < w.ceiling_z - p.edge_band)
+    vl, vr = w.faces
+    t = min(tol, 0.45 * (vl - vr))
+    vertical = np.ones(len(idx), bool)
+    if normals is not None:
+        vertical = np.abs(normals[idx, :2] @ w.n) >= 0.5
+    on = [(np.abs(v - vl) < t) & vertical & core & inz, (np.abs(v - vr) < t) & vertical & core & inz]
+    inside = (v < vl - t) & (v > vr + t)
+    front = [(v > vl + t) & (v <= vl + p.reach), (v < vr - t) & (v >= vr - p.reach)]
+    low = np.abs(z - w.floor_z) < p.edge_band
+    mid = (z > w.floor_z + max(p.edge_band, 0.1)) & (z < w.ceiling_z - max(p.edge_band, 0.1)) & inz
+    d0, d1 = p.leaf_depth
+    d0 = max(d0, t)  # nearer than the face tolerance is the face
+    leaf = [(vl - v >= d0) & (vl - v <= d1) & (v > vr + t), (v - vr >= d0) & (v - vr <= d1) & (v < vl - t)]
+
+    def raster(mask):
+        return np.bincount(flat[mask], minlength=nu * nz).reshape(nu, nz).astype(np.float64)
+
+    scans = []
+    for s in (0, 1):
+        if scan_index is not None and n_scans:
+            k = scan_index[idx[on[s]]]
+            k = k[(k >= 0) & (k < n_scans)]
+            scans.append(np.bincount(k, minlength=n_scans))
+        else:
+            scans.append(np.zeros(0, np.int64))
+    either = on[0] | on[1] | (inside & core & inz)
+    return _Data(face=np.stack([raster(on[0]), raster(on[1])]),
+                 inside=raster(inside & core & inz),
+                 floor=np.bincount(iu[inside & low], minlength=nu).astype(np.float64),
+                 front=np.stack([raster(front[0] & mid), raster(front[1] & mid)]),
+                 leaf=np.stack([raster(leaf[0] & core & inz), raster(leaf[1] & core & inz)]),
+                 through=np.zeros((2, nu, nz)), shadow=np.zeros((2, nu, nz)),
+                 fu=u[either], fz=z[either], scans=scans,
+                 fcls=np.where(on[0], 0, np.where(on[1], 1, 2))[either].astype(np.int8),
+                 fdev=np.where(on[0], np.abs(v - vl), np.where(on[1], np.abs(v - vr), 0.0))[either])
+
+
+def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, tol: float,
+              p: OpeningParams) -> None:
+    """Fill ``through`` / ``shadow`` of each wall face from the scanners that see it."""
+    k_n = len(scanners)
+    per_scan = np.bincount(scan_index[(scan_index >= 0) & (scan_index < k_n)], minlength=k_n)
+    need: dict[int, list] = {}
+    floor_n = np.maximum(5, np.minimum(p.min_scan_points, 0.005 * per_scan))
+    for wi, dd in enumerate(data):
+        for s in (0, 1):
+            if len(dd.scans[s]) == 0:
+                continue
+            for k in np.flatnonzero(dd.scans[s] >= floor_n):
+                need.setdefault(int(k), []).append((wi, s))
+    if not need:
+        return
+    order = np.argsort(scan_index, kind="stable")
+    starts = np.searchsorted(scan_index[order], np.arange(k_n + 1))
+    c = p.cell
+    for k, pairs in need.items():
+        sel_k = order[starts[k]:starts[k + 1]]
+        pts = xyz[sel_k]
+        S = np.asarray(scanners[k], np.float64)
+        az = np.arctan2(pts[:, 1] - S[1], pts[:, 0] - S[0])
+        o = np.argsort(az)
+        az_s = az[o]
+        for wi, s in pairs:
+            w, dd = walls[wi], data[wi]
+            sg = 1.0 if s == 0 else -1.0
+            vf, vo = w.faces[s], w.faces[1 - s]
+            rs = S[:2] - w.p0
+            a_s, u_s = sg * (rs @ w.n), rs @ w.d
+            a_n, a_f = sg * vf, sg * vo
+            if a_s <= a_n + tol:
+                continue  # the scanner stands in the wall (a door) or behind the face
+            e0 = w.p0 + w.n * vf - S[:2]
+            e1 = e0 + w.d * w.length
+            t0, t1 = sorted((math.atan2(e0[1], e0[0]), math.atan2(e1[1], e1[0])))
+            if t1 - t0 <= math.pi:
+                ranges = [(t0, t1)]
+            else:
+                ranges = [(t1, math.pi), (-math.pi, t0)]
+            sel = np.concatenate([o[np.searchsorted(az_s, a):np.searchsorted(az_s, b, "right")]
+                                  for a, b in ranges])
+            if len(sel) == 0:
+                continue
+            q = pts[sel]
+            rq = q[:, :2] - w.p0
+            a_q, u_q = sg * (rq @ w.n), rq @ w.d
+            thr = a_q < a_f - tol
+            occ = (a_q > a_n + tol) & (a_q < min(a_s - 0.05, a_n + p.reach))  # furniture near the face
+            m = thr | occ
+            if not m.any():
+                continue
+            lam = (a_s - a_n) / (a_s - a_q[m])
+            uc = u_s + lam * (u_q[m] - u_s)
+            zc = S[2] + lam * (q[m, 2] - S[2])
+            ok = (uc >= 0) & (uc < w.length) & (zc >= w.floor_z) & (zc < w.ceiling_z)
+            nu, nz = dd.through.shape[1:]
+            flat = (np.clip((uc[ok] / c).astype(np.int64), 0, nu - 1) * nz
+                    + np.clip(((zc[ok] - w.floor_z) / c).astype(np.int64), 0, nz - 1))
+            is_thr = thr[m][ok]
+            dd.through[s] += np.bincount(flat[is_thr], minlength=nu * nz).reshape(nu, nz)
+            dd.shadow[s] += np.bincount(flat[~is_thr], minlength=nu * nz).reshape(nu, nz)
+            dd.rays = True
+
+
+# ----------------------------------------------------------------------------- gaps
+def _merge(rects: list, gap: int) -> list:
+    """Merge rectangles [c0, c1, r0, r1] closer than ``gap`` cells along one axis that overlap
+    along the other by half the larger one's extent."""
+    rects = [list(r) for r in rects]
+    i = 0
+    while i < len(rects):
+        for j in range(i + 1, len(rects)):
+            a, b = rects[i], rects[j]
+            du, dz = max(a[0], b[0]) - min(a[1], b[1]), max(a[2], b[2]) - min(a[3], b[3])
+            ou = -du / max(1, a[1] - a[0], b[1] - b[0])  # overlap share of the larger one
+            oz = -dz / max(1, a[3] - a[2], b[3] - b[2])
+            if (du <= gap and oz >= 0.5) or (dz <= gap and ou >= 0.5):
+                rects[i] = [min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])]
+                del rects[j]
+                i = -1
+                break
+        i += 1
+    return [tuple(r) for r in rects]
+
+
+def _components(mask: np.ndarray, p: OpeningParams) -> list:
+    """Rectangles [c0, c1, r0, r1] (cells) of the empty components of ``mask``."""
+    lab, _ = ndimage.label(mask)
+    rects = []
+    for i, sl in enumerate(ndimage.find_objects(lab), start=1):
+        if sl is None:
+            continue
+        sub = lab[sl] == i
+        if sub.sum() < 4:
+            continue
+        c0, c1, r0, r1 = _rectangle(sub, p.rect_share, max(1, int(round(p.merge_gap / p.cell))))
+        if c1 - c0 >= 2 and r1 - r0 >= 2:
+            rects.append((c0 + sl[0].start, c1 + sl[0].start, r0 + sl[1].start, r1 + sl[1].start))
+    return _merge(rects, max(1, int(round(p.merge_gap / p.cell))))
+
+
+def _gap_rects(dd: _Data, p: OpeningParams) -> tuple[list, list]:
+    """Candidate rectangles (full-raster cells) with their mode ("both": a hole through every
+    observed face; 0 / 1: a gap on that face only), and the per-side observed columns."""
+    c = p.cell
+    nz = dd.face.shape[2]
+    r_lo = int(math.ceil(p.edge_band / c))
+    r_hi = max(r_lo + 1, nz - r_lo)
+    run = int(round(p.unobserved_run / c))
+    cols = [dd.face[s][:, r_lo:r_hi].sum(axis=1) + dd.through[s][:, r_lo:r_hi].sum(axis=1) for s in (0, 1)]
+    obs = _observed(cols, run, int(round(p.density_window / c)) | 1)
+    empty = [~_presence(dd.face[s][:, r_lo:r_hi], p) for s in (0, 1)]
+    o0, o1 = obs
+    both = (empty[0] | ~o0[:, None]) & (empty[1] | ~o1[:, None]) & (o0 | o1)[:, None]
+    out = [((a, b, r0 + r_lo, r1 + r_lo), "both") for a, b, r0, r1 in _components(both, p)]
+    for s in (0, 1):
+        if obs[1 - s].any():  # a face-only gap where the other face is there: a closed door?
+            single = empty[s] & obs[s][:, None] & ~empty[1 - s]
+            out += [((a, b, r0 + r_lo, r1 + r_lo), s) for a, b, r0, r1 in _components(single, p)]
+    return out, obs
+
+
+def _inner_faces(obs, c0: int, c1: int, outer: list) -> list:
+    """The faces (0 left, 1 right) observed over most of columns c0..c1, outer faces left out."""
+    return [s for s in (0, 1) if s not in outer and obs[s][c0:c1].mean() > 0.5]
+
+
+def _edge(coord, other, inside, lo, hi, olo, ohi, take_max) -> Optional[float]:
+    """Where the wall ends in ``coord`` within [lo, hi] (``other`` within [olo, ohi]): the
+    median of the ``inside`` points of a reveal (a dense plane across the thickness, 1 cm
+    histogram peak), else where the face points end (a few strays beyond)."""
+    m = (coord >= lo) & (coord <= hi) & (other >= olo) & (other <= ohi)
+    rev = coord[m & inside]
+    if len(rev) >= 6:
+        hist, edges = np.histogram(rev, np.arange(lo, hi + 0.01, 0.01))
+        if len(hist) >= 3:
+            win = ndimage.convolve1d(hist, np.ones(7), mode="constant")
+            k = int(np.argmax(win))
+            if win[k] >= max(6.0, 0.5 * len(rev), 3.0 * win.mean()):  # a plane, not spilled noise
+                ctr = edges[k] + 0.005
+                return float(np.median(rev[np.abs(rev - ctr) <= 0.035]))
+    # walking from the face into the hole, the face ends at the first gap much wider than
+    # the spacing of the points before it, with only strays (a tenth) beyond; the last
+    # point falls short of the end by about one spacing
+    m &= ~inside  # glazing and leaves stand in the hole: only the faces end at its edge
+    if m.sum() < 2:
+        return None
+    x = np.sort(coord[m] - lo if take_max else hi - coord[m])
+    n = len(x)
+    i = np.arange(n)
+    sp = (x - x[np.maximum(i - 10, 0)]) / np.maximum(np.minimum(i, 10), 1)
+    gap = np.append(np.diff(x), np.inf)
+    end = np.flatnonzero((gap > np.maximum(4 * sp, 0.03)) & (i >= min(2, n - 1)) & (i >= 0.9 * n - 1))
+    k = int(end[0]) if len(end) else n - 1
+    e = min(float(x[k] + sp[k]), hi - lo)
+    return lo + e if take_max else hi - e
+
+
+def _share(a: np.ndarray, k: int = 3) -> np.ndarray:
+    """Cells with a point within a k × k neighbourhood (boolean)."""
+    return _box(a, k) > 0 if a.size else np.zeros(a.shape, bool)
+
+
+def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leafy: bool,
+             p: OpeningParams) -> Optional[tuple]:
+    """Edges (u0, u1, bottom z, top z; metres) and kind of a candidate rectangle of cells, from
+    the jambs, head and sill inside the thickness, else from where the face points end (a
+    closed door's leaf is no reveal; a one-face gap is measured on that face); None when
+    it is no door, opening or window."""
+    c, srch = p.cell, p.edge_search
+    c0, c1, r0, r1 = rect
+    z0, z1 = w.floor_z, w.ceiling_z
+    ul, ur, zb, zt = c0 * c, c1 * c, z0 + r0 * c, z0 + r1 * c
+    floor_reach, ceil_reach = zb - z0 <= p.floor_tolerance, z1 - zt <= p.ceiling_tolerance
+    cls = dd.fcls
+    keep = (cls == side) if side is not None else (cls == 2) | np.isin(cls, _inner_faces(obs, c0, c1, outer))
+    keep &= dd.fdev < tol / 2  # the face's core: few strays from a leaf or jamb behind it
+    if leafy:
+        keep &= cls != 2
+    fu, fz, fin = dd.fu[keep], dd.fz[keep], cls[keep] == 2
+    zlo, zhi = (z0 + p.edge_band if floor_reach else zb) + 0.05, zt - 0.05
+    el = _edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True)
+    er = _edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False)
+    el = ul - c if el is None else max(el, ul - srch)
+    er = ur + c if er is None else min(er, ur + srch)
+    if er <= el:
+        return None
+    et = z1 if ceil_reach else _edge(fz, fu, fin, zt - c, zt + srch, el + 0.05, er - 0.05, False)
+    et = zt + c if et is None else et
+    eb = z0 if floor_reach else _edge(fz, fu, fin, zb - srch, zb + c, el + 0.05, er - 0.05, True)
+    eb = zb - c if eb is None else eb
+    width = er - el
+    if floor_reach:
+        if not p.min_door_width <= width <= p.max_opening_width:
+            return None
+        if ceil_reach or width > p.max_door_width:
+            return el, er, z0, et, "opening"
+        return (el, er, z0, et, "door") if et - z0 >= p.min_door_height else None
+    if ceil_reach or not p.min_window_width <= width <= p.max_opening_width or et - eb < p.min_window_height:
+        return None
+    return el, er, eb, et, "window"
+
+
+def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -> Optional[dict]:
+    """Measure a candidate, classify it and weigh its evidence; None when it is no opening.
+
+    Confidence: up to 0.5 for rays seen through it, 0.25 for a gap on both faces of an
+    interior wall, 0.2 for an unshadowed hole in an exterior wall, 0.15 each for floor points
+    through the thickness and for reveals, 0.2 (no scanners, exterior wall) for points
+    beyond it, 0.45 for a closed door's leaf; less the shadowed (or covered) share."""
+    c = p.cell
+    nu, nz = dd.face.shape[1:]
+    rb = int(math.ceil(p.edge_band / c))
+    c0, c1, r0, r1 = rect
+    outer = [s for s in (0, 1) if w.sides[s] is None] if w.external else []
+    if w.external and not outer:
+        outer = [int(np.argmin([obs[0][c0:c1].mean(), obs[1][c0:c1].mean()]))]
+    side = mode if mode != "both" else None
+    leaf_sides = [side] if side is not None else [s for s in (0, 1) if s not in outer]
+    leafy = max([float(_share(dd.leaf[s][c0:c1, max(rb, r0):r1]).mean()) for s in leaf_sides],
+                default=0.0) >= p.leaf_share
+    m = _measure(w, dd, rect, side, outer, obs, tol, leafy, p)
+    if m is None or (side is not None and m[4] != "door"):
+        return None
+    el, er, eb, et, kind = m
+    z0 = w.floor_z
+    # cells of the measured rectangle, one cell in from its edges
+    a = int(np.clip(round(el / c) + 1, 0, nu - 1))
+    b = int(np.clip(round(er / c) - 1, a + 1, nu))
+    lo = max(rb, int(round((eb - z0) / c)) + 1)
+    hi = int(np.clip(round((et - z0) / c) - 1, lo + 1, nz))
+    cells = (slice(a, b), slice(lo, hi))
+    seen = _share(dd.through[0][cells] + dd.through[1][cells])
+    f_through = float(seen.mean())
+    reached = seen | _share(dd.inside[cells])  # a leaf, glazing or reveal was hit there
+    f_occ = float((_share(dd.shadow[0][cells] + dd.shadow[1][cells]) & ~reached).mean())
+    f_front = max([float(_share(dd.front[s][cells]).mean()) for s in _inner_faces(obs, a, b, outer)],
+                  default=0.0)
+    n_beyond = int(sum(dd.front[s][cells].sum() for s in outer)) + int(dd.through[:, a:b, lo:hi].sum())
+    both = (not w.external) and obs[0][a:b].mean() > 0.8 and obs[1][a:b].mean() > 0.8
+    f_floor = float((_box(dd.floor[a:b, None], 3)[:, 0] > 0).mean()) if kind != "window" else 0.0
+    # reveals: jambs, head and sill inside the thickness, well above the noise spilling from
+    # the faces (the wall's inside points per face point, times the face points there)
+    spill = float(dd.inside.sum()) / max(float(dd.face.sum()), 1.0)
+    ie, je = int(round(el / c)), int(round(er / c))
+    strips = [np.s_[max(0, ie - 2):ie + 2, lo:hi], np.s_[max(0, je - 2):je + 2, lo:hi]]
+    for zz, there in ((et, w.ceiling_z - et > 1e-6), (eb, kind == "window")):
+        if there:
+            r = int(round((zz - z0) / c))
+            strips.append(np.s_[a:b, max(0, r - 2):r + 2])
+    f_reveal = float(np.mean([dd.inside[st].sum() >= max(2.0, 3.0 * spill * dd.face[:, st[0], st[1]].sum())
+                              for st in strips]))
+    f_leaf = max([float(_share(dd.leaf[s][cells]).mean()) for s in leaf_sides], default=0.0)
+    occluded = f_occ >= p.max_occluded if dd.rays else f_front >= p.max_front_cover
+    closed = kind == "door" and f_leaf >= p.leaf_share and f_through < p.min_seen_through
+    if side is not None and not closed:
+        return None
+    conf = 0.5 * min(1.0, f_through / (2 * p.min_seen_through)) * dd.rays
+    conf += 0.25 * both + 0.2 * (w.external and not occluded and side is None)
+    conf += 0.15 * min(1.0, f_floor / p.cue_share) + 0.15 * min(1.0, f_reveal / p.reveal_share)
+    conf += 0.2 * min(1.0, n_beyond / 20.0) * (not dd.rays) * w.external + 0.45 * closed
+    conf = float(np.clip(conf - (f_occ if dd.rays else f_front), 0.0, 1.0))
+    if (occluded and not (f_through >= 2 * p.min_seen_through or closed)) or conf < p.min_confidence:
+        return None
+    return {"u0": el, "u1": er, "width": er - el, "height": et - eb, "sill": eb - z0, "kind": kind,
+            "open": not closed, "confidence": conf,
+            "support": {"seen_through": f_through, "occluded": f_occ if dd.rays else f_front,
+                        "points_beyond": n_beyond, "floor_points": float(dd.floor[a:b].sum()),
+                        "threshold_share": f_floor, "reveal_share": f_reveal,
+                        "both_faces": float(both), "leaf_share": f_leaf}}
+
+
+# ----------------------------------------------------------------------------- entry point
+def _checked(xyz, normals, scan_index, scanner_positions):
+    """Validated arrays (non-finite points dropped; the ray test needs both scanner arrays)."""
+    xyz = np.asarray(xyz, dtype=np.float64)
+    if xyz.ndim != 2 or xyz.shape[1] != 3:
+        raise InputError(f"opening detection: xyz must be (n, 3), not {xyz.shape}")
+    n = len(xyz)
+    normals = None if normals is None else np.asarray(normals, dtype=np.float64)
+    if normals is not None and normals.shape != (n, 3):
+        raise InputError(f"opening detection: normals must be ({n}, 3), not {normals.shape}")
+    if scan_index is None or scanner_positions is None:
+        scan_index = scanner_positions = None
+    else:
+        scan_index = np.asarray(scan_index).astype(np.int64).ravel()
+        scanner_positions = np.asarray(scanner_positions, dtype=np.float64).reshape(-1, 3)
+        if len(scan_index) != n:
+            raise InputError(f"opening detection: scan_index has {len(scan_index)} entries for {n} points")
+    keep = np.all(np.isfinite(xyz), axis=1)
+    if not keep.all():
+        xyz, normals = xyz[keep], None if normals is None else normals[keep]
+        scan_index = None if scan_index is None else scan_index[keep]
+    return xyz, normals, scan_index, scanner_positions
+
+
+def _fit_faces(frames: list[_Wall], idx: list, xyz: np.ndarray, p: OpeningParams) -> float:
+    """Set each wall's face offsets from its points; return the range noise σ (metres)."""
+    spread = []
+    for w, ii in zip(frames, idx):
+        rel = xyz[ii, :2] - w.p0
+        u, v, z = rel @ w.d, rel @ w.n, xyz[ii, 2]
+        core = (z > w.floor_z + 0.2) & (z < w.ceiling_z - 0.2)
+        offs = []
+        for sg in (1.0, -1.0):
+            r = sg * v[core] - w.thickness / 2
+            peak, mad, cnt = _face_fit(r, u[core], z[core], w.length, p.face_search)
+            offs.append(peak if cnt >= 30 else 0.0)
+            if cnt >= 200 and math.isfinite(mad):
+                spread.append(mad)
+        w.faces = np.array([w.thickness / 2 + offs[0], -(w.thickness / 2 + offs[1])])
+    return float(np.median(spread)) if spread else 0.01
+
+
+def _overlap(a: dict, b: dict) -> bool:
+    """Whether two measured openings overlap in the wall's plane."""
+    return (min(a["u1"], b["u1"]) > max(a["u0"], b["u0"])
+            and min(a["sill"] + a["height"], b["sill"] + b["height"]) > max(a["sill"], b["sill"]))
+
+
+def _shape(w: _Wall, o: dict, oid: str, name: str, exterior: str) -> Shape:
+    half = w.thickness / 2
+    a, b = w.p0 + w.d * o["u0"], w.p0 + w.d * o["u1"]
+    fp = [a - w.n * half, b - w.n * half, b + w.n * half, a + w.n * half]
+    z0 = w.floor_z + o["sill"]
+    kind = o["kind"]
+    attrs = {"width": o["width"], "height": o["height"], "sill": o["sill"], "kind": kind,
+             "spaces": [w.sides[0] or exterior, w.sides[1] or exterior],
+             "confidence": o["confidence"]}
+    if kind != "window":
+        attrs["open"] = o["open"]
+    sup = o["support"]
+    what = "closed door" if not o["open"] else kind
+    return Shape(oid, ShapeType.WINDOW if kind == "window" else ShapeType.DOOR,
+                 Polyhedron.prism(fp, z0, z0 + o["height"]), storey=w.shape.storey, name=name,
+                 terminal=True, parent=w.shape.id, support=sup, attributes=attrs,
+                 log=(f"openings: {what} {o['width']:.2f} m x {o['height']:.2f} m, sill {o['sill']:.2f} m; "
+                      f"seen through {sup['seen_through']:.0%}, occluded {sup['occluded']:.0%}, "
+                      f"confidence {o['confidence']:.2f}",))
+
+
+def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.ndarray,
+                    normals: Optional[np.ndarray] = None, scan_index: Optional[np.ndarray] = None,
+                    scanner_positions: Optional[np.ndarray] = None, params: OpeningParams = OpeningParams(),
+                    exterior_ids: Mapping[int, str] = {}) -> list[Shape]:
+    """Openings (DOOR / WINDOW shapes per the shared conventions: parent wall, width, height, sill, kind,
+    spaces from the wall's "sides" (None side -> exterior_ids[storey]), confidence, support) in the walls.
+
+    Parameters
+    ----------
+    walls : sequence of Shape
+        Wall runs (ShapeType.WALL; ``attributes`` "axis_line", "thickness", "external",
+        "sides"; a wall without "axis_line" is framed by its footprint's box). Other shapes
+        are ignored.
+    storeys : sequence of Storey
+        Floor and ceiling heights (metres) of the walls' storeys.
+    xyz : (n, 3) float64
+        Points in the walls' (model) frame, metres; non-finite rows are ignored.
+    normals : (n, 3) float64, optional
+        Unit normals; when given, only points on near-vertical patches facing across the
+        wall count as face points.
+    scan_index : (n,) int, optional
+        Scanner of each point (index into ``scanner_positions``, -1 unknown).
+    scanner_positions : (k, 3) float64, optional
+        Scanner origins, metres; with ``scan_index`` they enable the ray test.
+    params : OpeningParams
+    exterior_ids : mapping of storey index -> exterior shape id
+        The space of a wall side without a space (default ``"exterior_s<k>"``).
+
+    Returns
+    -------
+    list of Shape
+        DOOR shapes (kind "door" or "opening", ``"open"`` False for closed doors) and
+        WINDOW shapes, ids ``"<kind>_<wall id>_<j>"``, ordered by wall then along it.
+
+    Raises
+    ------
+    InputError
+        Malformed arrays or a wall without a usable axis or thickness.
+    """
+    xyz, normals, scan_index, scanners = _checked(xyz, normals, scan_index, scanner_positions)
+    frames = [_frame(w, storeys) for w in walls if w.type == ShapeType.WALL]
+    if not frames or len(xyz) == 0:
+        return []
+    p = params
+    idx = _bucket(xyz, frames, p.reach, p.grid)
+    sigma = _fit_faces(frames, idx, xyz, p)
+    tol = float(np.clip(p.face_sigmas * sigma, *p.face_tolerance))
+    n_scans = 0 if scanners is None else len(scanners)
+    data = [_analyse(w, ii, xyz, normals, scan_index, n_scans, tol, p) for w, ii in zip(frames, idx)]
+    if scanners is not None and n_scans:
+        _ray_test(frames, data, xyz, scan_index, scanners, tol, p)
+    out: list[Shape] = []
+    count = {"door": 0, "window": 0}
+    for w, dd in zip(frames, data):
+        rects, obs = _gap_rects(dd, p)
+        found: list[dict] = []
+        for rect, mode in sorted(rects, key=lambda r: r[1] != "both"):
+            o = _judge(w, dd, rect, mode, obs, tol, p)
+            if o is not None and not any(_overlap(o, f) for f in found):
+                found.append(o)
+        ext = exterior_ids.get(w.shape.storey, f"exterior_s{w.shape.storey}")
+        for j, o in enumerate(sorted(found, key=lambda f: f["u0"])):
+            tag = "window" if o["kind"] == "window" else "door"
+            count[tag] += 1
+            out.append(_shape(w, o, f"{tag}_{w.shape.id}_{j}", f"{tag.capitalize()} {count[tag]}", ext))
+    return out
