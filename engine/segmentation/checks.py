@@ -101,6 +101,17 @@ class FrameParams:
     min_planar_share: float = 0.25
     """Fewer planar neighbourhoods than this share means no structure (a scan is mostly
     planar, uniform noise in a box almost nowhere)."""
+    building_voxel: float = 1.5
+    """The building is the sample's largest connected component on a voxel grid this many
+    times the median ``neighbours``-th neighbour distance (the sample's own spacing): ground,
+    trees and facades outside, seen through windows and open doors, lie in far, sparse patches
+    apart from it (a gap of over a voxel) ..."""
+    building_share: float = 0.1
+    """... together with every component holding this share of its sample points (a storey
+    scanned apart from the others)."""
+    building_resample: float = 0.8
+    """... and when the building's box holds less than this share of the surface of the
+    sample's box (which sized its voxel), the building is sampled anew, finer."""
     min_up_confidence: float = 0.5
     """:func:`normalize_frame` refuses an automatic up axis below this confidence."""
     min_units_confidence: float = 0.5

@@ -6,7 +6,13 @@ pre-sample thinned on a voxel grid, so it is spatially even (a mobile scanner's 
 horizon band on the walls would otherwise fill whole neighbourhoods with one thin slab) —
 with PCA normals over its ``neighbours`` nearest neighbours. Its cost does not grow with
 the cloud, and every threshold is relative (to the extent, to the sample's own spacing and
-noise) until the units are known.
+noise) until the units are known. Only the **building** counts (:func:`_building`): rays
+through windows and open doors return ground, trees and facades outside in far, sparse
+patches that would carry much of the area (a sparse point stands for much of it) and widen
+the footprint. The sample's largest connected component on a voxel grid sized from its own
+spacing is the building (and any other holding ``building_share`` of its points: a storey
+scanned apart); when the rest widened the box that sized the sample's voxel, the building is
+sampled anew, as finely as without it.
 
 Up axis (:func:`detect_up`)
 ---------------------------
@@ -70,12 +76,14 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from ..errors import InputError, ReconstructionError
 from ..io import units_warning
 from ..pointcloud import PointCloud
 from .checks import (FrameParams, FrameSample, area_weights, check_degenerate, check_shape, checked_sample,
-                     frame_sample, planar_mask, robust_extent, source_name)
+                     frame_sample, planar_mask, robust_extent, sample_indices, source_name)
 
 __all__ = ["FrameParams", "UnitGuess", "UpGuess", "UNITS", "UP_AXES", "up_rotation", "detect_units",
            "detect_up", "check_degenerate", "normalize_frame"]
@@ -136,14 +144,9 @@ def up_rotation(up: str) -> np.ndarray:
     ``rotation @ e_up = e_z``; z is the identity, -z a half turn about x, ±y and ±x quarter
     turns that keep the remaining horizontal axis as it is where possible.
     """
-    table = {
-        "z": [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
-        "-z": [[1, 0, 0], [0, -1, 0], [0, 0, -1]],
-        "y": [[1, 0, 0], [0, 0, -1], [0, 1, 0]],
-        "-y": [[1, 0, 0], [0, 0, 1], [0, -1, 0]],
-        "x": [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
-        "-x": [[0, 0, 1], [0, 1, 0], [-1, 0, 0]],
-    }
+    table = {"z": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "-z": [[1, 0, 0], [0, -1, 0], [0, 0, -1]],
+             "y": [[1, 0, 0], [0, 0, -1], [0, 1, 0]], "-y": [[1, 0, 0], [0, 0, 1], [0, -1, 0]],
+             "x": [[0, 0, -1], [0, 1, 0], [1, 0, 0]], "-x": [[0, 0, 1], [0, 1, 0], [-1, 0, 0]]}
     if up not in table:
         raise InputError(f"up must be one of {', '.join(UP_AXES)}, not {up!r}")
     return np.array(table[up], dtype=np.float64)
@@ -171,6 +174,57 @@ def _levelled(s: FrameSample, params: FrameParams) -> FrameSample:
     k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
     rot = np.eye(3) + math.sin(ang) * k + (1 - math.cos(ang)) * (k @ k)  # Rodrigues: up -> z
     return s.transformed(rot)
+
+
+def _building(cloud: PointCloud, s: FrameSample, params: FrameParams, rng) -> FrameSample:
+    """The sample of the building alone (module doc): the components of ``s`` on a voxel grid
+    of ``building_voxel`` times its median neighbour distance (26-connected); unless all are
+    kept (the largest and those with ``building_share`` of its points), the sample is cut to
+    them or, when that shrinks the box that sized its voxel (``building_resample``), the
+    pre-sample is cut to their voxels (and the empty ones next to them), thinned and measured
+    anew: a finer sample of the building alone."""
+    ok = s.radius > 0
+    v = params.building_voxel * float(np.median(s.radius[ok])) if ok.sum() >= 100 else 0.0
+    lo = s.xyz.min(axis=0)
+    dims = np.floor((s.xyz.max(axis=0) - lo) / max(v, 1e-300)).astype(np.int64) + 3
+    if not v > 0 or float(np.prod(dims.astype(np.float64))) > 2.0 ** 60:
+        return s
+
+    def keys(xyz):  # voxel keys (a margin of one voxel around the sample) and whether inside it
+        q = np.floor((xyz - lo) / v).astype(np.int64) + 1
+        on = np.all((q >= 1) & (q < dims - 1), axis=1)
+        q = np.clip(q, 0, dims - 1)
+        return (q[:, 0] * dims[1] + q[:, 1]) * dims[2] + q[:, 2], on
+
+    def box_area(xyz):  # of the 0.1-99.9 percentile box, as sample_indices sizes its voxel
+        e = np.subtract(*np.percentile(xyz, [99.9, 0.1], axis=0))
+        return 2.0 * float(e[0] * e[1] + e[1] * e[2] + e[0] * e[2])
+
+    uk, inv = np.unique(keys(s.xyz)[0], return_inverse=True)
+    offs = (np.indices((3, 3, 3)).reshape(3, -1).T - 1) @ np.array([dims[1] * dims[2], dims[2], 1])
+    nk = uk[:, None] + offs[None, 14:]  # the 13 forward neighbours (offs[13] is the voxel itself)
+    j = np.minimum(np.searchsorted(uk, nk), len(uk) - 1)
+    hit = uk[j] == nk
+    graph = coo_matrix((np.ones(int(hit.sum())), (np.nonzero(hit)[0], j[hit])), shape=(len(uk),) * 2)
+    lab = connected_components(graph, directed=False)[1]
+    count = np.bincount(lab[inv])
+    keep = (count >= params.building_share * count.max())[lab]
+    if keep.all():
+        return s
+    kp = keep[inv]
+    if box_area(s.xyz[kp]) >= params.building_resample * box_area(s.xyz):  # as fine a sample: cut it
+        return FrameSample(s.xyz[kp], s.normals[kp], s.curvature[kp], s.spread[kp], s.radius[kp], s.noise[kp],
+                           s.rays, s.scanners, s.n_total, s.source)
+    near = np.setdiff1d((uk[keep][:, None] + offs[None, :]).ravel(), uk[~keep])
+    rng = np.random.default_rng(rng)
+    n, k = len(cloud), min(len(cloud), params.presample * params.sample_points)
+    raw = np.sort(rng.choice(n, k, replace=False)) if k < n else np.arange(n)
+    raw = raw[np.isfinite(cloud.xyz[raw]).all(axis=1)]
+    key, on = keys(cloud.xyz[raw])
+    j = np.minimum(np.searchsorted(near, key), len(near) - 1)
+    raw = raw[on & (near[j] == key)]
+    idx, pre = sample_indices(PointCloud(xyz=cloud.xyz[raw]), params, rng)
+    return frame_sample(cloud, params, rng, (raw[idx], raw[pre]))
 
 
 # ----------------------------------------------------------------------------- layers
@@ -514,7 +568,7 @@ def detect_up(cloud: PointCloud, params: FrameParams = FrameParams(), *, rng=0) 
         ``confidence`` below ``params.min_up_confidence`` means the cues disagree or are
         missing: the scan cannot be oriented automatically.
     """
-    s = frame_sample(cloud, params, rng)
+    s = _building(cloud, frame_sample(cloud, params, rng), params, rng)
     g = _decide_up(s, params)
     log.info("%s: up %s (confidence %.2f): %s", source_name(cloud), g.up, g.confidence, g.evidence)
     return g
@@ -637,7 +691,7 @@ def detect_units(cloud: PointCloud, params: FrameParams = FrameParams(), *, rng=
         "m" with a low confidence when no unit makes the storey height and the extent
         plausible.
     """
-    g = _decide_units(frame_sample(cloud, params, rng), params)
+    g = _decide_units(_building(cloud, frame_sample(cloud, params, rng), params, rng), params)
     log.info("%s: units %s (confidence %.2f): %s", source_name(cloud), g.unit, g.confidence, g.evidence)
     return g
 
@@ -687,7 +741,8 @@ def normalize_frame(cloud: PointCloud, units: str = "auto", up: str = "auto",
     name = source_name(cloud)
     notes: list = []  # warnings a user should see
     given_scale = None if units == "auto" else UNITS[units]
-    s, e = checked_sample(cloud, params, given_scale, rng)
+    s_all, e = checked_sample(cloud, params, given_scale, rng)
+    s = _building(cloud, s_all, params, rng)
     if up == "auto":
         ug = _decide_up(s, params)
         if ug.confidence < params.min_up_confidence:
@@ -713,7 +768,7 @@ def normalize_frame(cloud: PointCloud, units: str = "auto", up: str = "auto",
             raise ReconstructionError(f"the units cannot be told: {g.evidence}. Pass the units (--units)",
                                       cloud.source or None)
         unit, scale, u_ev, u_conf = g.unit, g.scale, g.evidence, g.confidence
-        check_shape(cloud, s.xyz, params, scale, e)  # now in metres
+        check_shape(cloud, s_all.xyz, params, scale, e)  # now in metres
     else:
         unit, scale, u_ev, u_conf = units, UNITS[units], "given", 1.0
     log.info("%s: units %s (confidence %.2f): %s", name, unit, u_conf, u_ev)
