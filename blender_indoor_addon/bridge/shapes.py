@@ -215,6 +215,7 @@ def model_to_objects(model, *, scene=None) -> dict:
             colls[coll_name].objects.link(obj)
             by_coll[coll_name].append(obj)
             names.append((obj, shape.name or shape.id))
+        _cut_openings(model, by_coll)
         json_text = model.to_json()
         write_model_text(json_text)
     remove_objects(old)
@@ -223,6 +224,22 @@ def model_to_objects(model, *, scene=None) -> dict:
             obj.name = wanted
             obj.data.name = wanted
     return by_coll
+
+
+def _cut_openings(model, by_coll: dict) -> None:
+    """Each active wall shows the holes of its doors and windows: a Boolean (difference)
+    modifier per opening, the opening's own object as the cutter (it stays visible in the
+    hole, drawn as a door or as glass)."""
+    walls = {o.get("indoor_shape_id"): o for o in by_coll.get(TYPE_COLLECTIONS["wall"], [])}
+    for kind in ("door", "window"):
+        for obj in by_coll.get(TYPE_COLLECTIONS[kind], []):
+            wall = walls.get(obj.get("indoor_parent"))
+            if wall is None:
+                continue
+            mod = wall.modifiers.new(f"Opening {obj.name}", "BOOLEAN")
+            mod.operation = "DIFFERENCE"
+            mod.solver = "EXACT"
+            mod.object = obj
 
 
 def apply_edit(model, new_model, *, scene=None) -> dict:

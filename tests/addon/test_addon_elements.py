@@ -139,6 +139,23 @@ def test_truth_elements_fill_their_collections(addon, office):
     assert window["indoor_parent"] == truth.windows[0].parent
     slab = _by_shape(truth.slabs[0].id)
     assert slab["indoor_kind"] in ("floor", "base", "ceiling", "roof") and slab["indoor_thickness"] > 0
+    # each wall shows the holes of its openings: a difference with each opening's object
+    host = _by_shape(truth.windows[0].parent)
+    cutters = {m.object.name for m in host.modifiers if m.type == "BOOLEAN" and m.operation == "DIFFERENCE"}
+    assert window.name in cutters
+    n_cut = sum(1 for o in _coll("Walls").objects for m in o.modifiers if m.type == "BOOLEAN")
+    assert n_cut == len([o for o in truth.doors + truth.windows if o.parent in {w.id for w in truth.walls}])
+    # the hole is there: the evaluated wall has less volume than its box
+    import bmesh
+    import bpy
+    dg = bpy.context.evaluated_depsgraph_get()
+    bm = bmesh.new()
+    bm.from_mesh(host.evaluated_get(dg).to_mesh())
+    cut = bm.calc_volume()
+    bm.free()
+    box = truth[truth.windows[0].parent].geometry.volume()
+    w = truth.windows[0].attributes
+    assert box - cut >= 0.9 * w["width"] * w["height"] * min(np.sort(truth[truth.windows[0].parent].scope.size[:2])[0], 1)
 
 
 def test_element_colours_and_properties(element_scene, addon, elements):
