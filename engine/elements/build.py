@@ -20,10 +20,11 @@ import numpy as np
 from shapely.geometry import Point, Polygon
 from shapely.ops import unary_union
 
+from ..geometry.polygon import polygon_parts
 from ..model import BuildingModel, Polyhedron, Relation, Shape, ShapeType
-from .params import ElementsParams
+from .params import ElementsParams, SlabParams
 from .thickness import PointGrid, reveal_depth
-from .walls import WallRun, _polygons, space_footprint, wall_runs
+from .walls import WallRun, space_footprint, wall_runs
 
 __all__ = ["ElementsParams", "building_elements", "ELEMENT_LOG"]
 
@@ -99,7 +100,7 @@ def _slabs(storey_geo: dict, model: BuildingModel, prm: SlabParams) -> list[Shap
             gap = floor - ceil_below
             if 0.02 < gap <= prm.max_gap:
                 t = gap
-        for poly in _polygons(outline):
+        for poly in polygon_parts(outline):
             ring = _keyhole(poly) if len(poly.interiors) else np.asarray(poly.exterior.coords)[:-1, :2]
             sid = f"slab_s{k}_floor_{len(shapes):02d}"
             shapes.append(Shape(sid, ShapeType.SLAB, Polyhedron.prism(ring, floor - t, floor), storey=k,
@@ -122,7 +123,7 @@ def _slabs(storey_geo: dict, model: BuildingModel, prm: SlabParams) -> list[Shap
             region = unary_union([storey_geo[k][2][r.id] for r in rs]).buffer(0)
             # reach over the walls around those rooms (within the outline)
             region = region.buffer(0.35, join_style="mitre").intersection(outline)
-            for poly in _polygons(region):
+            for poly in polygon_parts(region):
                 if poly.area < 0.05:
                     continue
                 ring = _keyhole(poly) if len(poly.interiors) else np.asarray(poly.exterior.coords)[:-1, :2]
@@ -138,7 +139,7 @@ def _slabs(storey_geo: dict, model: BuildingModel, prm: SlabParams) -> list[Shap
 
 def _exterior_shape(k: int, outline, z0: float, z1: float, old: list[str]) -> Shape:
     band = outline.buffer(1.0, join_style="mitre").difference(outline)
-    polys = sorted(_polygons(band), key=lambda p: -p.area)
+    polys = sorted(polygon_parts(band), key=lambda p: -p.area)
     ring = _keyhole(polys[0]) if polys else None
     geo = Polyhedron.prism(ring, z0, z1) if ring is not None else Polyhedron.box((0, 0, z0), (1e-3, 1e-3, z1))
     return Shape(f"exterior_s{k}", ShapeType.EXTERIOR, geo, storey=k, name=f"Exterior {k}", terminal=True,
@@ -172,10 +173,10 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
         keep.append(s)
     made_ext = {s.id for s in model.shapes if s.type == ShapeType.EXTERIOR and _made_here(s)}
     model, keep = _free_exterior_ids(model, keep)
-    base = model.with_(shapes=tuple(keep), relations=tuple(r for r in model.relations))
+    base = model.with_(shapes=tuple(keep))
     by_storey = _storey_spaces(base)
     top_ids = {s.id for ss in by_storey.values() for s in ss}
-    new_shapes, relations, runs_all = [], [], []
+    new_shapes, relations, walls = [], [], []
     storey_geo = {}
     old_ext = {}
     for s in base.shapes:
@@ -195,17 +196,17 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
     xyz_model = _model_points(model, cloud) if detect else None
     detected = []
     if xyz_model is not None:
-        walls = [w for st in per_storey.values() for w in st[0]]
+        first = [w for st in per_storey.values() for w in st[0]]
         base_ext = base.with_(shapes=base.shapes + tuple(st[1] for st in per_storey.values()))
-        detected = _detect(base_ext, walls, xyz_model, cloud, prm)
+        detected = _detect(base_ext, first, xyz_model, cloud, prm)
         # exterior walls measured through their openings: the runs again with that thickness
-        measured = _measured_exteriors(walls, detected, xyz_model, prm)
+        measured = _measured_exteriors(first, detected, xyz_model, prm)
         for k, regions in measured.items():
             per_storey[k] = _storey_walls(base, k, by_storey[k], footprints[k], prm, old_ext.get(k, []), regions)
-    for k, (walls, ext, rels, geo) in per_storey.items():
-        new_shapes.extend(walls)
+    for k, (st_walls, ext, rels, geo) in per_storey.items():
+        new_shapes.extend(st_walls)
+        walls.extend(st_walls)
         new_shapes.append(ext)
-        runs_all.extend((None, w) for w in walls)
         relations.extend(rels)
         storey_geo[k] = geo
     new_shapes.extend(_slabs(storey_geo, base, prm.slabs))
@@ -220,7 +221,6 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
         shapes.append(s)
     out = base.with_(shapes=tuple(shapes) + tuple(new_shapes))
     # openings
-    walls = [w for _, w in runs_all]
     openings = _rehome(old_openings, walls, out)
     # a user's door (or one kept from before) wins over a detection at its place
     openings += [o for o in _rehome(detected, walls, out) if not _overlaps(o, openings)]

@@ -29,10 +29,11 @@ from typing import Optional
 
 import numpy as np
 from shapely import STRtree
-from shapely.geometry import LineString, MultiPolygon, Point, Polygon
+from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.polygon import orient
 from shapely.ops import unary_union
 
+from ..geometry.polygon import polygon_parts
 from ..model import BuildingModel, Shape
 from .params import WallRunParams
 
@@ -109,21 +110,11 @@ def space_footprint(model: BuildingModel, space: Shape):
     return u.buffer(1e-3, join_style="mitre").buffer(-1e-3, join_style="mitre")
 
 
-def _polygons(g):
-    if g is None or g.is_empty:
-        return []
-    if isinstance(g, Polygon):
-        return [g]
-    if isinstance(g, MultiPolygon):
-        return list(g.geoms)
-    return [p for p in getattr(g, "geoms", []) if isinstance(p, Polygon)]
-
-
 def _edges(footprints: dict, tol: float):
     """Directed edges (p, q, space id): the space on the left."""
     P, Q, owner = [], [], []
     for sid, g in footprints.items():
-        for poly in _polygons(g):
+        for poly in polygon_parts(g):
             poly = orient(poly.simplify(tol, preserve_topology=True), 1.0)
             for ring in [poly.exterior, *poly.interiors]:
                 c = np.asarray(ring.coords)[:, :2]

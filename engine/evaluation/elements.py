@@ -51,6 +51,7 @@ from shapely.geometry import LineString, Polygon
 from shapely.ops import unary_union
 
 from ..errors import InputError
+from ..geometry.polygon import polygon_parts
 from ..geometry.transforms import apply_transform, frame_transform
 from ..model import BuildingModel, Shape, ShapeType
 from .loading import transform_model
@@ -143,13 +144,7 @@ def _number(v) -> Optional[float]:
     return v if math.isfinite(v) else None
 
 
-def _polygons(g) -> list[Polygon]:
-    """The non-empty polygons of a shapely geometry (collections flattened)."""
-    if g is None or g.is_empty:
-        return []
-    if isinstance(g, Polygon):
-        return [g]
-    return [p for part in getattr(g, "geoms", ()) for p in _polygons(part)]
+_polygons = polygon_parts
 
 
 def _plan(s: Shape, model: BuildingModel):

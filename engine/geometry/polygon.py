@@ -13,7 +13,7 @@ from shapely.geometry import Polygon
 from shapely.ops import unary_union
 
 __all__ = ["signed_area", "polygon_area", "area_3d", "newell_normal", "triangulate_polygon",
-           "triangulate_faces", "polyhedron_volume", "prism_footprint", "plan_area_perimeter"]
+           "triangulate_faces", "polyhedron_volume", "prism_footprint", "plan_area_perimeter", "polygon_parts"]
 
 
 def signed_area(xy: np.ndarray) -> float:
@@ -153,3 +153,13 @@ def plan_area_perimeter(vertices: np.ndarray, faces: Sequence[Sequence[int]]) ->
     if poly.is_empty:
         return 0.0, 0.0
     return float(poly.area), float(poly.length)
+
+
+def polygon_parts(geom) -> list:
+    """The non-empty shapely Polygons of a geometry (a Polygon, a MultiPolygon or a
+    collection, nested collections flattened; lines and points left out)."""
+    if geom is None or geom.is_empty:
+        return []
+    if isinstance(geom, Polygon):
+        return [geom]
+    return [p for part in getattr(geom, "geoms", ()) for p in polygon_parts(part)]

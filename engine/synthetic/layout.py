@@ -23,10 +23,11 @@ from typing import Optional
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box
+from shapely.geometry import LineString, Point, Polygon, box
 from shapely.ops import unary_union
 
 from ..errors import InputError
+from ..geometry.polygon import polygon_parts
 from ..model import BuildingModel, Polyhedron, Provenance, Relation, Shape, ShapeType, Storey
 
 __all__ = [
@@ -95,14 +96,7 @@ def _project_interval(geom, p, d, length) -> Optional[tuple]:
     return (u0, u1) if u1 - u0 > _EPS else None
 
 
-def _polygons(geom) -> list[Polygon]:
-    if geom is None or geom.is_empty:
-        return []
-    if isinstance(geom, Polygon):
-        return [geom]
-    if isinstance(geom, MultiPolygon):
-        return list(geom.geoms)
-    return [g for g in getattr(geom, "geoms", []) if isinstance(g, Polygon) and not g.is_empty]
+_polygons = polygon_parts
 
 
 def _clean(poly: Polygon) -> Polygon:

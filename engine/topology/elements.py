@@ -48,10 +48,6 @@ def rebuild_elements(model: BuildingModel) -> BuildingModel:
     return building_elements(model)
 
 
-def _flag(s: Shape, detected: bool) -> Shape:
-    return s.with_(attributes={**s.attributes, "detected": detected})
-
-
 @dataclass(frozen=True)
 class WallFrame:
     """A wall run's frame in plan: start ``a`` (2,), unit direction ``d``, left normal ``n``
