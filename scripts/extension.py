@@ -52,7 +52,8 @@ MANIFEST = "blender_manifest.toml"
 PYTHON_VERSION = "3.11"
 """Python of Blender 4.2–4.5 (the wheels' ``cp311`` tag)."""
 REQUIREMENTS = ["scipy>=1.11", "open3d>=0.18", "shapely>=2.0", "networkx>=3.0", "ifcopenshell>=0.8",
-                "trimesh>=4.0", "laspy>=2.5", "lazrs", "pye57>=0.4", "matplotlib>=3.7", "numpy>=1.26,<2"]
+                "trimesh>=4.0", "laspy>=2.5", "lazrs", "pye57>=0.4", "matplotlib>=3.7", "dask[distributed]>=2024.1",
+                "bcf-client>=0.8", "numpy>=1.26,<2"]
 """What the engine needs (the ranges of requirements.txt). numpy is constrained to what
 Blender 4.2–4.5 ship (1.26) so the resolver picks builds compatible with it; numpy itself is
 never bundled."""
@@ -67,9 +68,10 @@ NOT_LOADED = {
     "nbformat", "fastjsonschema", "jsonschema", "jsonschema-specifications", "referencing", "rpds-py",
     "attrs", "jupyter-core", "platformdirs", "nest-asyncio", "retrying",
     # dash's web server (open3d imports dash, which never starts a server here)
-    "flask", "blinker", "click", "itsdangerous", "jinja2", "importlib-metadata", "zipp", "setuptools",
+    # (click, jinja2, psutil, importlib-metadata and zipp stay: dask.distributed loads them)
+    "flask", "blinker", "itsdangerous", "setuptools",
     # open3d's command-line tools, ifcopenshell's and matplotlib's unused extras
-    "configargparse", "psutil", "tzdata", "isodate", "lazy-importer", "contourpy",
+    "configargparse", "tzdata", "isodate", "lazy-importer", "contourpy",
 }
 """Distributions the engine's dependencies declare but the engine never loads at run time
 (``probe``: an import of open3d, ifcopenshell, trimesh, laspy, pye57, matplotlib and a whole
