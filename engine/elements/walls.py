@@ -375,4 +375,10 @@ def wall_runs(footprints: dict, storey: int, prm: WallRunParams = WallRunParams(
     pieces, open_pairs = _pieces(footprints, prm, measured)
     runs = [r for r in _runs_of(pieces, storey, prm) if r.length >= prm.min_length]
     _join(runs, prm)
-    return [r for r in runs if r.length >= prm.min_length], open_pairs
+    # meeting ends can shorten a run below the minimum: drop it, and the joins to it
+    keep = [i for i, r in enumerate(runs) if r.length >= prm.min_length]
+    new_index = {old: new for new, old in enumerate(keep)}
+    out = [runs[i] for i in keep]
+    for r in out:
+        r.joins = [(new_index[j], at, other) for j, at, other in r.joins if j in new_index]
+    return out, open_pairs

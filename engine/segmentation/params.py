@@ -37,6 +37,10 @@ class CleanParams:
     max_working_points: Count = 250_000
     """The voxel grows (by the square root of the excess: points lie on surfaces) until the
     working cloud has about this many points; 0: no bound."""
+    max_points: Count = 2_000_000
+    """A larger scan is first thinned at random to about this many points, before anything
+    else (:func:`engine.pipeline.cap_points`): past a few million points a denser sample adds
+    cost, not information. 0: no bound."""
     remove_outliers: Flag = False
     """Run the statistical outlier filter on the working cloud."""
     outlier_neighbors: Count = 12

@@ -87,3 +87,29 @@ def test_far_strays_at_ground_level_do_not_make_the_cloud_look_flat(office):
     rng = np.random.default_rng(3)
     strays = rng.uniform(-1000.0, 1000.0, (len(office.cloud) // 100, 3)) * [1.0, 1.0, 0.05]
     check_degenerate(PointCloud(xyz=np.r_[office.cloud.xyz, strays], source="strays"))
+
+
+def test_a_scan_past_max_points_is_thinned_first_and_reconstructs_alike(office):
+    from dataclasses import replace
+
+    from engine.params import Params
+    from engine.segmentation.params import CleanParams
+
+    cloud = office.cloud.with_(xyz=office.cloud.xyz.copy())
+    assert pipeline.cap_points(cloud, CleanParams())[1] == {}  # under the bound: untouched
+    cap = 40_000
+    thin, info = pipeline.cap_points(cloud, CleanParams(max_points=cap))
+    assert info["points"] == len(cloud) and abs(info["kept"] - cap) < 0.02 * cap  # binomial: sd ~ 0.4 %
+    again, _ = pipeline.cap_points(cloud, CleanParams(max_points=cap))
+    assert np.array_equal(thin.xyz, again.xyz)  # seeded: the same points every run
+    # a random sample keeps the density pattern: the share of each true label is the scan's
+    lab_all = np.bincount(cloud.fields["label"], minlength=8) / len(cloud)
+    lab_thin = np.bincount(thin.fields["label"], minlength=8) / len(thin)
+    assert np.max(np.abs(lab_all - lab_thin)) < 0.01
+    base = Params()
+    params = replace(base, preprocess=replace(base.preprocess, clean=replace(base.preprocess.clean, max_points=cap)))
+    model = reconstruct(cloud, "manhattan", params=params, rng=0)
+    assert model.provenance.trace["cleaning"]["thinned"] == info
+    assert "thin" in model.provenance.timings
+    rooms = [s for s in model.spaces if not s.parent]
+    assert len(rooms) == len(office.truth.spaces)  # the 40k-point sample still gives every room
