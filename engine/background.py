@@ -14,6 +14,7 @@ import time
 from typing import Any, Callable
 
 from .errors import Cancelled
+from .progress import eta_text
 from .reconstruct import reconstruct
 
 __all__ = ["BackgroundJob", "ReconstructJob"]
@@ -57,6 +58,7 @@ class BackgroundJob:
         self.fraction, self.message = 0.0, ""
         self.result, self.error, self.cancelled, self.seconds = None, None, False, 0.0
         self.done = False
+        self._started: float | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
 
@@ -66,7 +68,7 @@ class BackgroundJob:
             self.message = message
 
     def _run(self) -> None:
-        t0 = time.perf_counter()
+        t0 = self._started = time.perf_counter()
         try:
             self.result = self._work(self._progress, self._stop.is_set)
         except Cancelled:
@@ -90,6 +92,14 @@ class BackgroundJob:
         """Wait for the worker (at most ``timeout`` seconds); True when it has ended."""
         self._thread.join(timeout)
         return not self._thread.is_alive()
+
+    @property
+    def eta(self) -> str:
+        """"~N s left" while it runs (the elapsed time extrapolated over the fraction done,
+        :func:`engine.progress.eta_text`); "" before there is enough to go on, and when done."""
+        if self._started is None or self.done:
+            return ""
+        return eta_text(time.perf_counter() - self._started, self.fraction)
 
     @property
     def running(self) -> bool:

@@ -10,7 +10,7 @@ from typing import Callable, Optional
 
 from .errors import Cancelled
 
-__all__ = ["ProgressCallback", "StopCallback", "Progress"]
+__all__ = ["ProgressCallback", "StopCallback", "Progress", "eta_text"]
 
 ProgressCallback = Callable[[float, str], None]
 """``progress(fraction in [0, 1], message)``."""
@@ -68,3 +68,12 @@ class Progress:
         if isinstance(progress, Progress):
             return progress
         return cls(progress, should_stop)
+
+
+def eta_text(elapsed: float, fraction: float) -> str:
+    """"~N s left": the elapsed time extrapolated over the fraction done, once there is enough
+    of both to go on (5 % done and 2 s spent); "" before, and when done."""
+    if fraction >= 1.0 or fraction < 0.05 or elapsed < 2.0:
+        return ""
+    left = elapsed * (1.0 - fraction) / fraction
+    return f"~{left:.0f} s left" if left < 120 else f"~{left / 60:.0f} min left"

@@ -175,7 +175,8 @@ class INDOOR_OT_reconstruct(bpy.types.Operator):
         settings = getattr(context.scene, "indoor", None)
         context.window_manager.progress_update(int(round(1000 * job.fraction)))
         if settings is not None:
-            settings.progress, settings.progress_text = job.fraction, job.message
+            eta = job.eta  # "~N s left" once enough is done to extrapolate
+            settings.progress, settings.progress_text = job.fraction, f"{job.message} ({eta})" if eta else job.message
         if job.running:
             return {"RUNNING_MODAL"}
         self._finish(context)

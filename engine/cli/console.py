@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..jobs import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, guarded, stop_requested
+from ..progress import eta_text
 
 __all__ = ["ConsoleProgress", "UsageError", "emit", "run_batch", "batch_exit", "plain"]
 
@@ -21,15 +22,6 @@ __all__ = ["ConsoleProgress", "UsageError", "emit", "run_batch", "batch_exit", "
 class UsageError(InputError):
     """A bad command-line value that names a file or a key (a parameter file, a ``--set``):
     exit code 2 like any other usage error, on one line."""
-
-
-def eta_text(elapsed: float, fraction: float) -> str:
-    """"~N s left": the elapsed time extrapolated over the fraction done, once there is enough
-    of both to go on (5 % done and 2 s spent); "" before, and when done."""
-    if fraction >= 1.0 or fraction < 0.05 or elapsed < 2.0:
-        return ""
-    left = elapsed * (1.0 - fraction) / fraction
-    return f"~{left:.0f} s left" if left < 120 else f"~{left / 60:.0f} min left"
 
 
 class ConsoleProgress:

@@ -37,6 +37,26 @@ def test_job_runs_and_reports_progress_in_order():
     assert job.error is None and not job.cancelled and job.seconds >= 0.0
 
 
+def test_eta_extrapolates_the_elapsed_time_while_running():
+    half, release = threading.Event(), threading.Event()
+
+    def work(progress, should_stop):
+        progress(0.5, "half")
+        half.set()
+        release.wait(30)
+        return None
+
+    job = BackgroundJob(work)
+    assert job.eta == ""  # not started
+    job.start()
+    assert half.wait(30)
+    job._started -= 10.0  # as if 10 s had passed: half done in 10 s leaves about 10 s
+    assert job.eta == "~10 s left"
+    release.set()
+    _wait(job)
+    assert job.eta == ""  # done
+
+
 def test_fraction_never_goes_back_and_stays_in_range():
     def work(progress, should_stop):
         progress(0.6, "later")
