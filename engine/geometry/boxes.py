@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 __all__ = ["min_area_box"]
 
@@ -28,6 +27,8 @@ def min_area_box(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
     xy = v[:, :2]
     best = None
     try:
+        from scipy.spatial import ConvexHull  # here: scipy.spatial costs 0.4 s to import
+
         hull = xy[ConvexHull(xy).vertices] if len(xy) >= 3 else xy
     except Exception:  # collinear or too few points
         hull = xy
