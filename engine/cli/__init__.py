@@ -19,23 +19,41 @@ from typing import Optional, Sequence
 from .. import __version__
 from ..errors import IndoorError, error_kind, error_line
 from ..jobs import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_USAGE, terminate_as_interrupt
-from .changes import add_changes
 from .console import UsageError
-from .convert import add_convert
-from .evaluate import add_evaluate
-from .info import add_info
-from .params import add_params
-from .segment import add_segment
-from .synth import add_synth
 
-__all__ = ["main", "run", "build_parser"]
+__all__ = ["main", "run", "build_parser", "COMMANDS"]
 
-COMMANDS = (add_info, add_convert, add_evaluate, add_changes, add_synth, add_segment, add_params)
-"""Parser builders, one per subcommand, in the order ``--help`` lists them."""
+COMMANDS = {
+    "info": "point count, bounds, fields, spacing and scans of scan files",
+    "convert": "reconstruct building models from scans, write IFC and JSON",
+    "evaluate": "completeness, correctness and accuracy of a model against a reference",
+    "changes": "compare a model with a newer scan: new points, redundant surfaces",
+    "synth": "write a synthetic scan and its ground-truth model",
+    "segment": "preprocess scans: align, storeys, planes and the cells",
+    "params": "list every reconstruction parameter (value, unit, meaning) or write the TOML parameter file",
+}
+"""Subcommand → its one-line help, in the order ``--help`` lists them. Each lives in the module
+``engine.cli.<name>`` (``add_<name>``, ``cmd_<name>``), imported only when it runs: ``indoor
+--help`` imports none of them, ``indoor info`` only its own (the reconstruction, IFC and
+evaluation libraries cost seconds to import)."""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``indoor`` parser; every subcommand also gets ``--debug``, ``--quiet`` and ``--json``."""
+def _command_of(argv: Sequence[str]) -> Optional[str]:
+    """The subcommand named in ``argv`` (its first word that is not an option), or None."""
+    for a in argv:
+        if not a.startswith("-"):
+            return a if a in COMMANDS else None
+    return None
+
+
+def build_parser(argv: Optional[Sequence[str]] = None) -> argparse.ArgumentParser:
+    """The ``indoor`` parser; every subcommand also gets ``--debug``, ``--quiet`` and ``--json``.
+
+    ``argv`` given: only the subcommand it names gets its whole parser (the others are listed
+    with their help, enough for ``--help`` and for argparse's "invalid choice"); None: all
+    of them."""
+    import importlib
+
     parser = argparse.ArgumentParser(
         prog="indoor",
         description="Turn indoor laser scans into building models (IFC), evaluate models "
@@ -60,8 +78,12 @@ def build_parser() -> argparse.ArgumentParser:
         return orig(name, **kw)
 
     sub.add_parser = add_parser
-    for add in COMMANDS:
-        add(sub)
+    wanted = set(COMMANDS) if argv is None else {_command_of(argv)}
+    for name, text in COMMANDS.items():
+        if name in wanted:
+            getattr(importlib.import_module(f"{__name__}.{name}"), f"add_{name}")(sub)
+        else:
+            orig(name, help=text, add_help=False)
     return parser
 
 
@@ -72,7 +94,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     2 usage (argparse, an option's value, a bad parameter file or key); 130 interrupted by
     Ctrl-C or SIGTERM. Any exception is caught here: ``--debug`` prints its traceback.
     """
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.debug else logging.INFO if args.verbose
                         else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")

@@ -118,3 +118,23 @@ def test_convert_writes_one_ifcspace_per_room_unless_asked_for_the_parts(small_s
     n_ifc, n_rooms, partial = counts[False]
     assert n_ifc == n_rooms and partial == 0  # every space of the model, none of its parts
     assert counts[True][0] > n_rooms and counts[True][2] > 0  # the grammar's cuboids as PARTIAL
+
+
+def test_help_imports_no_subcommand_and_no_heavy_library():
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom engine.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.startswith('engine.cli.') or m.split('.')[0] in "
+            "('open3d', 'ifcopenshell', 'scipy', 'networkx', 'trimesh') or m == 'engine.reconstruct'))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip().splitlines()[-1] == "['engine.cli.console']"  # the error line helpers only
+
+
+def test_listed_help_is_each_subcommands_own():
+    from engine.cli import COMMANDS
+
+    full = build_parser()
+    sub = next(a for a in full._actions if a.dest == "command")
+    listed = {c.dest: c.help for c in sub._choices_actions}
+    assert listed == COMMANDS
