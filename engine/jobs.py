@@ -136,9 +136,11 @@ class Failure:
     kind: str
     message: str
     traceback: str = field(default="", repr=False)
+    details: dict = field(default_factory=dict, repr=False, compare=False)
+    """More about the attempt for ``batch.json`` (worker, seconds, peak_mb, attempts)."""
 
     def to_dict(self) -> dict:
-        return {"file": self.file, "kind": self.kind, "error": self.message}
+        return {"file": self.file, "kind": self.kind, "error": self.message, **self.details}
 
     def print(self, debug: bool = False, stream=None) -> None:
         """``error: <message>`` on stderr, then the traceback when ``debug``."""

@@ -72,7 +72,91 @@ def parse_args(argv):
     p.add_argument("--section-drop", type=float, default=0.2,
                    help="the previews hide points above this share of the room height below its top")
     p.add_argument("--preview-point-radius", type=float, default=0.02, help="drawn point radius, metres")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="convert on a local Dask cluster of N worker processes (each with the bpy module)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="convert on an existing Dask cluster (tcp://HOST:PORT); its workers need the bpy "
+                        "module and this source tree, and write the outputs where they run")
+    p.add_argument("--memory-limit", default=None, metavar="SIZE", help="memory limit per local worker, e.g. 4GB")
     return p.parse_args(argv)
+
+
+def cluster_task(scan, args, name, params_dict):
+    """One scan on a Dask worker: IFC + JSON + .blend + PNG written by the worker (into
+    ``args.out`` as the worker sees it). Runs in the worker's process; the add-on is
+    registered there once. Returns a ``batch.json`` entry, ``status`` done or failed."""
+    import time as _time
+
+    if "bpy" not in sys.modules:  # the client's sys.path came along and holds bpy's own scripts/modules,
+        sys.path[:] = [p for p in sys.path if f"{os.sep}bpy{os.sep}" not in p]  # whose bpy/ hides the module
+        import bpy  # noqa: F401
+    pkg = load_package()
+    jobs = importlib.import_module(PACKAGE + ".engine.jobs")
+    params_mod = importlib.import_module(PACKAGE + ".engine.params")
+    if not getattr(pkg, "_batch_registered", False):
+        pkg.register()
+        pkg._batch_registered = True
+    try:
+        from distributed import get_worker
+
+        worker = get_worker().address
+    except (ImportError, ValueError):
+        worker = "local"
+    t0 = _time.perf_counter()
+    params = params_mod.params_from_dict(params_dict)
+    result, failure = jobs.guarded(scan, lambda: convert_one(pkg, scan, args, name, params), debug=args.debug)
+    if failure is not None:
+        return {"input": scan, "status": "failed", "kind": failure.kind, "error": failure.message,
+                "traceback": failure.traceback, "worker": worker,
+                "seconds": round(_time.perf_counter() - t0, 3)}
+    return {**result, "status": "done", "worker": worker, "seconds": round(_time.perf_counter() - t0, 3)}
+
+
+def run_on_cluster(pkg, args, names, params, report):
+    """Every scan as one task on the Dask cluster (``--workers`` / ``--scheduler``), through
+    ``engine.cluster.run_jobs`` (a dead worker's scan is retried once); ``batch.json`` is
+    rewritten as each scan finishes. Returns ``(done, failed, interrupted)``."""
+    import cloudpickle
+
+    cluster = importlib.import_module(PACKAGE + ".engine.cluster")
+    jobs_mod = importlib.import_module(PACKAGE + ".engine.jobs")
+    if __name__ in sys.modules:  # run as a script: the task goes by value, workers need not import it
+        cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    import json
+
+    params_dict = json.loads(json.dumps(params.to_dict()))  # tuples as lists, as in a parameter file
+    from types import SimpleNamespace  # not engine.cluster.Job: the workers load the package by path
+
+    # absolute paths: a worker's current folder is its own (Blender changes it, too)
+    args = argparse.Namespace(**{**vars(args), "out": os.path.abspath(args.out)})
+    jobs = [SimpleNamespace(path=os.path.abspath(scan), name=name) for scan, name in zip(args.scans, names)]
+    done, failed = [], []
+
+    def task(job, data=None):  # the Job carries the scan and its output name
+        return cluster_task(job.path, args, job.name, params_dict)
+
+    def on_result(i, r):
+        r["input"] = args.scans[i]
+        if r.get("status") == "done":
+            done.append(r)
+            log.info("ok: %s (%s)", r["input"], r.get("worker"))
+        else:
+            f = jobs_mod.Failure(args.scans[i], r.get("kind", "internal"), r.get("error", ""), r.get("traceback", ""),
+                                 details={k: r[k] for k in ("worker", "seconds", "attempts") if k in r})
+            failed.append(f)
+            report(f)
+        os.makedirs(args.out, exist_ok=True)
+        jobs_mod.write_batch_record(args.out, done, failed, interrupted=False)
+
+    with cluster.connect(args.scheduler, args.workers, args.memory_limit) as client:
+        link = cluster.dashboard_link(client)
+        if link:
+            log.info("Dask dashboard: %s", link)
+        try:
+            cluster.run_jobs(client, jobs, task=task, on_result=on_result)
+        except KeyboardInterrupt:
+            return done, failed, True
+    return done, failed, False
 
 
 def convert_one(pkg, scan, args, name, params=None):
@@ -158,6 +242,22 @@ def main(argv=None):
         log.error("failed: %s", f.message)
         if args.debug and f.traceback:
             log.error("%s", f.traceback)
+
+    if args.workers or args.scheduler:
+        try:
+            with jobs.terminate_as_interrupt():
+                done, failed, interrupted = run_on_cluster(pkg, args, names, params, report)
+        except KeyboardInterrupt:
+            interrupted = True
+        except errors.IndoorError as e:  # dask missing, scheduler unreachable
+            log.error("error: %s", errors.error_line(e))
+            return jobs.EXIT_FAILED
+        if interrupted:
+            log.error("interrupted: the files finished before it are intact")
+        if done or failed:
+            jobs.write_batch_record(args.out, done, failed, interrupted=interrupted)
+        log.info("%d converted, %d failed", len(done), len(failed))
+        return jobs.EXIT_INTERRUPTED if interrupted else jobs.EXIT_OK if not failed else jobs.EXIT_FAILED
 
     pkg.register()
     try:

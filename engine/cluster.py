@@ -1,0 +1,504 @@
+"""Batch conversion on a Dask cluster: each scan is one task (``indoor convert --workers N`` or
+``--scheduler tcp://HOST:PORT``); see docs/cluster.md.
+
+* :func:`expand_inputs` — files, folders (every scan format inside, recursively) and lists of
+  paths (``@FILE``, ``*.lst``, or a ``.txt`` whose first line names an existing file).
+* :func:`convert_job` — the task: one :class:`Job` converted where it runs, with its seconds,
+  peak memory (the worker process's resident set size, sampled every 20 ms during the task)
+  and the worker's address; with ``data`` (``--ship``) the scan's bytes come with the task
+  and the outputs go back as bytes, so the workers need no shared file system.
+* :func:`connect` — a client on an existing scheduler or on a new :class:`LocalCluster`.
+* :func:`run_jobs` — submits the jobs, retries a file once when its worker died, and hands
+  each result to a callback as it finishes (the CLI writes ``batch.json`` there).
+* :func:`manifest_ok` / :func:`write_manifest` — ``<name>.manifest.json`` beside the outputs
+  (input sha256, hash of the parameters, engine version) for ``--resume``.
+
+``dask.distributed`` is imported only here and only when a cluster is asked for: the engine
+works without it (:class:`~engine.errors.MissingDependencyError` otherwise).
+"""
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional, Sequence
+
+from .errors import Cancelled, InputError, MissingDependencyError, error_kind, error_line, printable
+from .fileutil import atomic_write_bytes, atomic_write_text
+
+__all__ = ["Job", "expand_inputs", "convert_job", "connect", "run_jobs", "params_hash", "file_sha256",
+           "manifest_path", "manifest_ok", "write_manifest", "LIST_SUFFIXES", "MANIFEST_SUFFIX"]
+
+LIST_SUFFIXES = (".lst", ".list")
+"""A file with one of these extensions is a list of scan paths (as is ``@FILE``)."""
+MANIFEST_SUFFIX = ".manifest.json"
+
+
+def _distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise MissingDependencyError("dask[distributed]", "--workers / --scheduler (a Dask cluster)") from None
+    return distributed
+
+
+# ------------------------------------------------------------------ inputs
+
+def _scan_extensions() -> tuple:
+    from .io import SUPPORTED_EXTENSIONS
+
+    return tuple(e.lower() for e in SUPPORTED_EXTENSIONS)
+
+
+def _is_path_list(path: str) -> bool:
+    low = path.lower()
+    if low.endswith(LIST_SUFFIXES):
+        return True
+    if not low.endswith(".txt"):
+        return False
+    try:  # a .txt is a point list unless its first line names an existing file
+        with open(path, encoding="utf-8", errors="replace") as f:
+            for line in f:
+                line = line.strip()
+                if line and not line.startswith("#"):
+                    p = line if os.path.isabs(line) else os.path.join(os.path.dirname(path), line)
+                    return os.path.isfile(p)
+    except OSError:
+        return False
+    return False
+
+
+def _read_list(path: str) -> list[str]:
+    try:
+        with open(path, encoding="utf-8") as f:
+            lines = [ln.strip() for ln in f]
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"cannot read the list of scans ({getattr(e, 'strerror', None) or e})", path) from None
+    base = os.path.dirname(path)
+    return [ln if os.path.isabs(ln) else os.path.join(base, ln) for ln in lines if ln and not ln.startswith("#")]
+
+
+def expand_inputs(items: Sequence[str | os.PathLike]) -> list[str]:
+    """The scan files named by ``items``, in order: a file is itself; a folder gives every
+    scan inside it (any supported extension, recursively, sorted); ``@FILE``, a ``.lst`` /
+    ``.list`` file, or a ``.txt`` whose first line names an existing file is a list of paths,
+    one per line (``#`` comments; relative paths from the list's folder). A path that does
+    not exist is kept, so its conversion reports it like any other bad file.
+
+    Raises
+    ------
+    InputError
+        A list file cannot be read.
+    """
+    exts = _scan_extensions()
+    out: list[str] = []
+    for item in items:
+        p = os.fspath(item)
+        if p.startswith("@") and not os.path.exists(p):
+            out.extend(expand_inputs(_read_list(p[1:])))
+        elif os.path.isdir(p):
+            found = []
+            for root, dirs, files in os.walk(p):
+                dirs.sort()
+                found.extend(os.path.join(root, f) for f in sorted(files) if f.lower().endswith(exts))
+            out.extend(found)
+        elif os.path.isfile(p) and _is_path_list(p):
+            out.extend(expand_inputs(_read_list(p)))
+        else:
+            out.append(p)
+    return out
+
+
+# ------------------------------------------------------------------ resume manifests
+
+def file_sha256(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(chunk), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def params_hash(options: dict, params=None) -> str:
+    """sha256 of everything besides the scan that decides the outputs: the convert options
+    and the reconstruction parameters."""
+    from .params import Params
+
+    data = {"options": options, "params": Params.coerce(params).to_dict()}
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def manifest_path(out_dir: str | os.PathLike, name: str) -> str:
+    return os.path.join(os.fspath(out_dir), name + MANIFEST_SUFFIX)
+
+
+def write_manifest(out_dir, name: str, input_path: str, sha256: str, phash: str, outputs: Sequence[str]) -> str:
+    """``<name>.manifest.json``, written after the outputs (atomically): what made them."""
+    from . import __version__
+
+    path = manifest_path(out_dir, name)
+    atomic_write_text(path, json.dumps({"input": printable(input_path), "sha256": sha256, "params": phash,
+                                        "engine": __version__,
+                                        "outputs": [os.path.basename(o) for o in outputs if o]}, indent=2) + "\n")
+    return path
+
+
+def manifest_ok(out_dir, name: str, input_path: str, phash: str) -> Optional[dict]:
+    """The manifest of ``name`` when its outputs exist and were made from this very input
+    (same sha256), with the same parameters and engine version; else None."""
+    from . import __version__
+
+    try:
+        with open(manifest_path(out_dir, name), encoding="utf-8") as f:
+            m = json.load(f)
+    except (OSError, ValueError):
+        return None
+    if not isinstance(m, dict) or m.get("params") != phash or m.get("engine") != __version__:
+        return None
+    outs = m.get("outputs") or []
+    if not outs or not all(os.path.isfile(os.path.join(os.fspath(out_dir), o)) for o in outs):
+        return None
+    try:
+        if file_sha256(input_path) != m.get("sha256"):
+            return None
+    except OSError:
+        return None
+    return m
+
+
+# ------------------------------------------------------------------ the task
+
+@dataclass(frozen=True)
+class Job:
+    """One file to convert: ``convert_file(path, out_dir, name=name, params=params, **options)``."""
+
+    path: str
+    name: str
+    out_dir: str
+    options: dict = field(default_factory=dict)
+    params: object = None
+    timeout: Optional[float] = None
+
+    def with_(self, **kw) -> "Job":
+        return dataclasses.replace(self, **kw)
+
+
+class _PeakRSS:
+    """The peak resident set size of this process while the block runs, sampled every 20 ms
+    (psutil, which ``distributed`` depends on; else ``ru_maxrss``, the process's all-time peak)."""
+
+    def __init__(self, interval: float = 0.02):
+        self.interval = interval
+        self.peak = 0
+        self._stop = threading.Event()
+
+    def _rss(self) -> int:
+        try:
+            import psutil
+
+            return psutil.Process().memory_info().rss
+        except Exception:  # no psutil: the all-time peak of the process, in KiB on Linux
+            import resource
+
+            return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+    def _run(self):
+        while not self._stop.wait(self.interval):
+            self.peak = max(self.peak, self._rss())
+
+    def __enter__(self):
+        self.peak = self._rss()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+        self.peak = max(self.peak, self._rss())
+
+
+def _worker_address() -> str:
+    try:
+        from distributed import get_worker
+
+        return get_worker().address
+    except (ImportError, ValueError):
+        return "local"
+
+
+def _reroot(files: dict, old: str, new: str) -> dict:
+    """Shipped outputs name the worker's temporary copy of the scan (provenance source): put
+    the client's path back, in JSON and in the IFC text."""
+    swaps = [(json.dumps(old)[1:-1].encode(), json.dumps(new)[1:-1].encode()), (old.encode(), new.encode())]
+    out = {}
+    for k, b in files.items():
+        for a, c in swaps:
+            b = b.replace(a, c)
+        out[k] = b
+    return out
+
+
+_shipped: dict = {}  # worker's temporary copy -> the client's path (the model's source and name)
+_shipped_lock = threading.Lock()
+
+
+def _install_shipped_reader() -> None:
+    """Let the engine's reader name a shipped scan by the client's path, not the worker's
+    temporary copy: the model's name and source (and so its GlobalIds) are then the same
+    as in place. Installed once per worker process; other paths read as before."""
+    from . import reconstruct
+
+    if getattr(reconstruct.read_point_cloud, "_indoor_shipped", False):
+        return
+    read = reconstruct.read_point_cloud
+
+    def read_point_cloud(path, *a, **kw):
+        cloud = read(path, *a, **kw)
+        with _shipped_lock:
+            orig = _shipped.get(os.fspath(path))
+        return cloud if orig is None else dataclasses.replace(cloud, source=orig)
+
+    read_point_cloud._indoor_shipped = True
+    reconstruct.read_point_cloud = read_point_cloud
+
+
+def convert_job(job: Job, data: Optional[bytes] = None) -> dict:
+    """Convert one file where this runs (a Dask worker or the client); never raises for a bad
+    file: the result has ``status`` ``"done"`` or ``"failed"`` (``kind`` and ``error``: one
+    line naming the file), ``seconds``, ``peak_mb`` and ``worker``. With ``data`` the scan's
+    bytes are converted in a temporary folder and the outputs returned in ``files``."""
+    from . import reconstruct
+
+    t0 = time.perf_counter()
+    deadline = None if not job.timeout else time.monotonic() + float(job.timeout)
+
+    def should_stop():
+        return deadline is not None and time.monotonic() > deadline
+
+    tmp, path = None, job.path
+    res: dict = {"input": job.path, "name": job.name, "worker": _worker_address(), "pid": os.getpid()}
+    try:
+        with _PeakRSS() as mem:
+            try:
+                path, out_dir = job.path, job.out_dir
+                if data is not None:
+                    tmp = tempfile.mkdtemp(prefix="indoor-ship-")
+                    path = os.path.join(tmp, "in", os.path.basename(job.path))
+                    out_dir = os.path.join(tmp, "out")
+                    os.makedirs(os.path.dirname(path))
+                    with open(path, "wb") as f:
+                        f.write(data)
+                    _install_shipped_reader()
+                    with _shipped_lock:
+                        _shipped[path] = job.path
+                    res["sha256"] = hashlib.sha256(data).hexdigest()
+                else:
+                    res["sha256"] = file_sha256(path) if os.path.isfile(path) else None
+                r = reconstruct.convert_file(path, out_dir, name=job.name, params=job.params,
+                                             should_stop=should_stop, **job.options)
+                res.update({"status": "done", "json": r.json_path, "ifc": r.ifc_path, **r.report["summary"],
+                            "method": r.model.provenance.method})
+                if data is not None:
+                    files = {}
+                    for key in ("json", "ifc"):
+                        if res[key]:
+                            with open(res[key], "rb") as f:
+                                files[os.path.basename(res[key])] = f.read()
+                            res[key] = os.path.join(job.out_dir, os.path.basename(res[key]))
+                    res["files"] = _reroot(files, path, job.path)
+            except Exception as e:  # the error boundary of one file
+                if isinstance(e, Cancelled) and should_stop():
+                    res.update({"status": "failed", "kind": "cancelled",
+                                "error": f"{printable(job.path)}: timed out after {job.timeout:g} s (--timeout)"})
+                else:
+                    line = error_line(e, job.path)
+                    res.update({"status": "failed", "kind": error_kind(e),
+                                "error": line.replace(path, job.path) if data is not None else line})
+                    if error_kind(e) == "internal":  # a bug: its traceback for --debug
+                        import traceback
+
+                        res["traceback"] = traceback.format_exc()
+    finally:
+        if tmp is not None:
+            with _shipped_lock:
+                _shipped.pop(path, None)
+            shutil.rmtree(tmp, ignore_errors=True)
+    res["seconds"] = round(time.perf_counter() - t0, 3)
+    res["peak_mb"] = round(mem.peak / 2 ** 20, 1)
+    return res
+
+
+# ------------------------------------------------------------------ the cluster
+
+@contextlib.contextmanager
+def connect(scheduler: Optional[str] = None, workers: Optional[int] = None, memory_limit=None):
+    """A ``distributed.Client``: on the scheduler at ``scheduler`` (``tcp://HOST:PORT``), or
+    on a new ``LocalCluster`` of ``workers`` processes with one thread each and
+    ``memory_limit`` per worker (``"2GB"``, bytes, ``"auto"``; the nanny restarts a worker
+    over it), closed at the end. The local scheduler declares a task failed the first time
+    its worker dies (``allowed-failures`` 0): :func:`run_jobs` does the one retry itself."""
+    distributed = _distributed()
+    import logging
+
+    import dask
+
+    if logging.getLogger().getEffectiveLevel() > logging.INFO:  # dask's INFO lines only with --verbose
+        logging.getLogger("distributed").setLevel(logging.WARNING)
+        logging.getLogger("distributed.nanny").setLevel(logging.ERROR)  # "still alive ..., killing" at close
+    if scheduler:
+        client = distributed.Client(scheduler, timeout="20s")
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cluster = distributed.LocalCluster(n_workers=int(workers or 1), threads_per_worker=1, processes=True,
+                                           memory_limit=memory_limit if memory_limit is not None else "auto",
+                                           dashboard_address=":0")
+    try:
+        client = distributed.Client(cluster)
+        try:
+            yield client
+        finally:
+            client.close()
+    finally:
+        cluster.close()
+
+
+def dashboard_link(client) -> Optional[str]:
+    try:
+        return client.dashboard_link
+    except Exception:  # no dashboard (bokeh missing) or scheduler without one
+        return None
+
+
+def _died_result(job: Job, attempts: int, exc: BaseException) -> dict:
+    return {"input": job.path, "name": job.name, "status": "failed", "kind": "internal", "attempts": attempts,
+            "worker": getattr(getattr(exc, "last_worker", None), "address", None),
+            "error": f"{printable(job.path)}: the worker died {attempts} times while converting it "
+                     "(killed, crashed, or over its memory limit)"}
+
+
+def run_jobs(client, jobs: Sequence[Job], *, on_result: Optional[Callable[[int, dict], None]] = None,
+             task: Callable = convert_job, ship: bool = False, retries: int = 1,
+             on_tick: Optional[Callable[[int, int, int], None]] = None, max_in_flight: Optional[int] = None) -> list:
+    """Run ``task(job)`` (``task(job, bytes)`` with ``ship``) for every job on ``client``'s
+    cluster; return the results in the order of ``jobs``.
+
+    ``on_result(index, result)`` is called on the client as each one finishes. A task whose
+    worker died (``KilledWorker``) is submitted again, up to ``retries`` times, preferring
+    another worker; then it is a failure. ``on_tick(done, failed, running)`` is called as
+    tasks finish (running: the unfinished tasks, at most one per worker thread).
+    ``max_in_flight`` bounds the submitted, unfinished tasks (with ``ship`` the default is
+    twice the threads, so the client holds few scans in memory).
+    """
+    distributed = _distributed()
+    results: list = [None] * len(jobs)
+    attempts = [0] * len(jobs)
+    pending: dict = {}
+    queue = list(range(len(jobs)))[::-1]
+    threads = max(1, sum(client.nthreads().values()))
+    if ship and max_in_flight is None:
+        max_in_flight = 2 * threads
+    done = failed = 0
+
+    def key(i):
+        return f"convert-{i}-{jobs[i].name}-{attempts[i]}"
+
+    def submit(i, avoid=None):  # a retry, preferring another worker than the one that died
+        attempts[i] += 1
+        args = (jobs[i],) + ((_read_bytes(jobs[i].path),) if ship else ())
+        others = [w for w in client.scheduler_info(n_workers=-1)["workers"] if w != avoid] if avoid else None
+        where = {"workers": others, "allow_other_workers": True} if others else {}
+        fut = client.submit(task, *args, key=key(i), pure=False, **where)
+        pending[fut] = i
+        ac.add(fut)
+
+    def fill():  # the queued jobs, up to max_in_flight, in one client.map call
+        batch, data = [], []
+        while queue and (max_in_flight is None or len(pending) + len(batch) < max_in_flight):
+            i = queue.pop()
+            if ship:
+                try:
+                    data.append(_read_bytes(jobs[i].path))
+                except OSError as e:  # --ship: the client cannot read the scan
+                    finish(i, {"input": jobs[i].path, "name": jobs[i].name, "status": "failed", "kind": "input",
+                               "error": error_line(InputError(f"cannot read ({e.strerror or e})", jobs[i].path))})
+                    continue
+            attempts[i] += 1
+            batch.append(i)
+        if batch:
+            futs = client.map(task, [jobs[i] for i in batch], *([data] if ship else []),
+                              key=[key(i) for i in batch], pure=False)
+            for i, fut in zip(batch, futs):
+                pending[fut] = i
+            ac.update(futs)
+
+    def finish(i, r):
+        nonlocal done, failed
+        r.setdefault("attempts", attempts[i])
+        results[i] = r
+        if r.get("status") == "done":
+            done += 1
+        else:
+            failed += 1
+        if on_result is not None:
+            on_result(i, r)
+
+    ac = distributed.as_completed([], with_results=True, raise_errors=False)
+    fill()
+    if on_tick is not None:
+        on_tick(done, failed, min(len(pending), threads))
+    for batch in ac.batches():  # event-driven, results fetched in the background: no round trip per task
+        for fut, value in batch:
+            i = pending.pop(fut)
+            status = fut.status
+            fut.release()
+            if status == "finished":
+                finish(i, value)
+                continue
+            exc = value[1] if isinstance(value, tuple) and len(value) == 3 else value
+            if isinstance(exc, distributed.KilledWorker) and attempts[i] <= retries:
+                submit(i, avoid=getattr(getattr(exc, "last_worker", None), "address", None))
+                continue
+            if isinstance(exc, distributed.KilledWorker):
+                r = _died_result(jobs[i], attempts[i], exc)
+            else:  # the task itself raised (a custom task, or a bug), or was cancelled
+                r = {"input": jobs[i].path, "name": jobs[i].name, "status": "failed",
+                     "kind": error_kind(exc) if isinstance(exc, BaseException) else "internal",
+                     "error": error_line(exc, jobs[i].path) if isinstance(exc, BaseException) else str(exc)}
+            finish(i, r)
+        fill()
+        if on_tick is not None:
+            on_tick(done, failed, min(len(pending), threads))
+    return results
+
+
+def _read_bytes(path: str) -> bytes:
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def write_shipped(out_dir: str, result: dict) -> None:
+    """Write the outputs a ``--ship`` task sent back into ``out_dir`` (each atomically)."""
+    files = result.pop("files", None) or {}
+    for fname, data in files.items():
+        atomic_write_bytes(os.path.join(out_dir, fname), data)
+
+
+def remove_partials(out_dir: str, name: str) -> None:
+    """Remove the temporary ``.<name>.*.part`` files a worker killed mid-write left behind."""
+    with contextlib.suppress(OSError), os.scandir(out_dir) as it:
+        for e in it:
+            if e.name.startswith("." + name + ".") and e.name.endswith(".part"):
+                with contextlib.suppress(OSError):
+                    os.remove(e.path)
