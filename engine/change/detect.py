@@ -18,6 +18,9 @@
    (coverage ≤ a threshold) are *redundant*. Occlusion by furniture also lowers coverage,
    so values are reported, not only verdicts.
 4. Connected clusters of new points (voxel connectivity) are candidate new elements.
+5. Status per model element (:mod:`.elements`: installed, incomplete, not installed, no data,
+   from coverage and free-space evidence), the element behind each room face, and new walls
+   fitted from the wall candidates (:mod:`.newwalls`) with their doors.
 """
 from __future__ import annotations
 
@@ -37,10 +40,12 @@ from ..geometry.transforms import apply_rotation, apply_transform, frame_transfo
 from ..model import BuildingModel
 from ..pointcloud import PointCloud
 from ..progress import Progress
+from .elements import StatusParams, element_status, surface_elements
+from .newwalls import WallFitParams, fit_new_walls, new_openings
 from .registration import REGISTERED, UNREGISTERED, RegistrationParams, RegistrationResult, register
 
 __all__ = ["ChangeParams", "ChangeResult", "detect_changes", "cluster_points", "distance_threshold",
-           "EXISTING", "NEW", "UNCLASSIFIED", "REGISTERED", "UNREGISTERED"]
+           "EXISTING", "NEW", "UNCLASSIFIED", "OUTSIDE", "REGISTERED", "UNREGISTERED"]
 
 log = logging.getLogger(__name__)
 
@@ -52,6 +57,9 @@ NEW = 1
 """Point type: on no model surface."""
 UNCLASSIFIED = 2
 """Point type: not classified, because the scan could not be registered to the model."""
+OUTSIDE = 3
+"""Point type: outside the model's plan (beyond its outer walls: surroundings seen through
+windows and doors), neither existing nor new."""
 
 
 @dataclass(frozen=True)
@@ -66,7 +74,7 @@ class ChangeParams:
     estimate from the median point-to-plane distance)."""
     min_distance_threshold: float = 0.05
     """Smallest automatic r, metres."""
-    noise_factor: float = 6.0
+    noise_factor: float = 8.0
     """Automatic r in units of the estimated noise σ̂."""
     use_normals: bool = True
     """Also require the point normal to agree with the surface (normals are estimated
@@ -79,9 +87,10 @@ class ChangeParams:
     normal_neighbours: int = 10
     """Nearest neighbours used for estimating missing normals (PCA); raise it for noisy
     (mobile) scans."""
-    classify_types: tuple = ("interior", "wall", "slab", "door")
-    """Model shape types whose faces make a point existing (door boxes hold the jambs and
-    lintels of the openings)."""
+    classify_types: tuple = ("interior", "wall", "slab", "door", "window")
+    """Model shape types whose faces make a point existing (door and window boxes hold the
+    jambs, lintels and reveals of the openings; points inside a door or window box — glass,
+    frames — exist too)."""
     coverage_types: tuple = ("interior",)
     """Model shape types whose faces get a coverage value (the room faces)."""
     alpha_radius: float = 0.2
@@ -102,6 +111,13 @@ class ChangeParams:
     registration: RegistrationParams = field(default_factory=RegistrationParams)
     """How the scan is registered to the model and when the registration has failed
     (``min_fitness``)."""
+    status: StatusParams = field(default_factory=StatusParams)
+    """How each model element gets its status (:func:`.elements.element_status`)."""
+    element_status: bool = True
+    """Give each wall, slab, door and window a status."""
+    fit_walls: bool = True
+    """Fit new walls (and their doors) to the wall candidates."""
+    walls: WallFitParams = field(default_factory=WallFitParams)
     force: bool = False
     """Classify the points, flag redundant faces and find new elements even when the
     registration failed (the result stays marked unregistered). Without it an
@@ -119,8 +135,9 @@ class ChangeResult:
     registration : RegistrationResult
         ``registration.transform`` maps scan coordinates into the model frame.
     point_type : (n,) uint8
-        0 existing, 1 new, per scan point; 2 (:data:`UNCLASSIFIED`) everywhere when the
-        registration failed and ``params.force`` is not set.
+        0 existing, 1 new, 3 (:data:`OUTSIDE`) beyond the model's plan, per scan point; 2
+        (:data:`UNCLASSIFIED`) everywhere when the registration failed and ``params.force``
+        is not set.
     distance : (n,) float64
         Distance to the closest model surface containing the point's projection (normal
         agreeing), metres; inf when none within ``search_distance``.
@@ -140,6 +157,17 @@ class ChangeResult:
         Candidate new elements (clusters of new points, largest first): id (the
         ``cluster`` value), points, centroid, bounds, normal (PCA), kind "wall" (spans
         floor to ceiling) or "object" (furniture and the like).
+    element_status : list of dict
+        Status per wall, slab, door and window (:func:`.elements.element_status`: id,
+        global_id, name, ifc_class, status, coverage, faces with 3D polygons, ...); empty when
+        not classified.
+    surface_elements : dict str -> str or None
+        Room-face key → id of the element (wall, slab) behind it.
+    new_walls : list of dict
+        Walls fitted to the new points (:func:`.newwalls.fit_new_walls`; "shape" holds the
+        WALL shape, model frame).
+    new_openings : list of Shape
+        Doors and windows found in the new walls.
     """
 
     registration: RegistrationResult
@@ -155,6 +183,10 @@ class ChangeResult:
     redundant: list
     elements: list
     params: ChangeParams
+    element_status: list = field(default_factory=list)
+    surface_elements: dict = field(default_factory=dict)
+    new_walls: list = field(default_factory=list)
+    new_openings: list = field(default_factory=list)
 
     @property
     def registered(self) -> bool:
@@ -176,11 +208,13 @@ class ChangeResult:
         n = len(self.point_type)
         new = int(np.sum(self.point_type == NEW))
         existing = int(np.sum(self.point_type == EXISTING))
+        outside = int(np.sum(self.point_type == OUTSIDE))
         return {
             "points": n,
             "existing": existing,
             "new": new,
-            "unclassified": n - new - existing,
+            "outside": outside,
+            "unclassified": n - new - existing - outside,
             "new_share": new / n if n else 0.0,
             "classified": self.classified,
             "forced": bool(self.params.force and not self.registered),
@@ -192,13 +226,33 @@ class ChangeResult:
             "new_walls": sum(e["kind"] == "wall" for e in self.elements),
             "new_wall_points": int(self.new_structure().sum()),
             "elements": self.elements,
+            "element_status": {st: sum(e["status"] == st for e in self.element_status)
+                               for st in ("installed", "incomplete", "not installed", "no data")},
+            "not_installed": [e["global_id"] for e in self.element_status if e["status"] == "not installed"],
+            "new_walls_fitted": [{k: v for k, v in w.items() if k != "shape"} for w in self.new_walls],
         }
 
-    def coverage_table(self) -> list[dict]:
-        """One JSON-ready row per room face: key, shape, kind, area, coverage, redundant."""
+    def element(self, shape_id: str) -> Optional[dict]:
+        """The status record of a model element (None when it has none)."""
+        return next((e for e in self.element_status if e["id"] == shape_id), None)
+
+    def coverage_table(self, model: Optional[BuildingModel] = None) -> list[dict]:
+        """One JSON-ready row per room face: key, shape, kind, area, coverage, redundant, polygon
+        (3D rings, model frame) and the element behind it (element_id, element_global_id)."""
+        from .elements import element_global_id
         red = set(self.redundant)
-        return [dict(p.to_dict(), coverage=float(c), redundant=p.key in red)
-                for p, c in zip(self.coverage_patches, self.coverage)]
+        rows = []
+        for p, c in zip(self.coverage_patches, self.coverage):
+            eid = self.surface_elements.get(p.key)
+            gid = None
+            if eid is not None:
+                rec = self.element(eid)
+                gid = rec["global_id"] if rec else (element_global_id(model, model[eid])
+                                                     if model is not None and eid in model else None)
+            rows.append(dict(p.to_dict(), coverage=float(c), redundant=p.key in red,
+                             polygon=[r.tolist() for r in p.outline3d()], element_id=eid,
+                             element_global_id=gid))
+        return rows
 
 
 def cluster_points(xyz: np.ndarray, voxel: float) -> np.ndarray:
@@ -298,6 +352,44 @@ def _classify(patches, xyz, cloud, t, params: ChangeParams, r: float, should_sto
     return PatchSupport(on, dist, patch, members)
 
 
+def _in_openings(model: BuildingModel, xyz: np.ndarray, r: float) -> np.ndarray:
+    """(n,) bool — points inside (within r of) the box of a door or window of the model."""
+    from ..evaluation.coverage import PointBuckets
+    from ..geometry.boxes import min_area_box
+    out = np.zeros(len(xyz), dtype=bool)
+    shapes = [s for s in model.shapes if s.active and s.type.value in ("door", "window")]
+    if not shapes or len(xyz) == 0:
+        return out
+    buckets = PointBuckets(xyz, 1.0)
+    for s in shapes:
+        b = s.geometry.bounds
+        cand = buckets.in_box(b[0] - r, b[1] + r)
+        if len(cand) == 0:
+            continue
+        origin, axes, size = min_area_box(s.geometry.vertices)
+        rel = xyz[cand] - origin
+        u, v, z = rel @ axes[0], rel @ axes[1], xyz[cand, 2]
+        inside = ((u >= -r) & (u <= size[0] + r) & (v >= -r) & (v <= size[1] + r)
+                  & (z >= b[0, 2] - r) & (z <= b[1, 2] + r))
+        out[cand[inside]] = True
+    return out
+
+
+def _outside(model: BuildingModel, xyz: np.ndarray, r: float) -> np.ndarray:
+    """(n,) bool — points whose plan position is more than r outside the model's plan (the
+    footprints of its interior spaces, walls and slabs)."""
+    import shapely
+    from shapely.geometry import Polygon
+    fps = [s.footprint() for s in model.shapes if s.active and s.type.value in ("interior", "wall", "slab")]
+    polys = [Polygon(f) for f in fps if f is not None and len(f) >= 3]
+    polys = [g if g.is_valid else g.buffer(0) for g in polys]
+    if not polys:
+        return np.zeros(len(xyz), dtype=bool)
+    plan = shapely.union_all(polys, grid_size=1e-5).buffer(r)
+    shapely.prepare(plan)
+    return ~shapely.contains_xy(plan, xyz[:, 0], xyz[:, 1])
+
+
 def _storey_range(model: BuildingModel, z: float) -> tuple[float, float]:
     """Floor and ceiling heights (metres) of the storey containing height ``z``."""
     for st in model.storeys:
@@ -368,6 +460,8 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
     r = distance_threshold(params, reg)
     sup = _classify(patches, xyz, cloud, t, params, r, should_stop)
     point_type = np.where(sup.on_model, EXISTING, NEW).astype(np.uint8)
+    point_type[(point_type == NEW) & _in_openings(model, xyz, r)] = EXISTING
+    point_type[(point_type == NEW) & _outside(model, xyz, r)] = OUTSIDE
 
     p(0.7, "surface coverage")
     cov_types = {str(getattr(x, "value", x)).lower() for x in params.coverage_types}
@@ -398,6 +492,24 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
         cluster[new_idx] = remap[lab]
         for k, lab_k in enumerate(big):
             elements.append(_element(xyz[new_idx[lab == lab_k]], k, model, params))
+    status, walls, openings = [], [], []
+    surf = surface_elements(model, cov_patches)
+    if claim:
+        scanners = None
+        if cloud.scanner_positions is not None and cloud.scan_index is not None:
+            scanners = apply_transform(t, np.asarray(cloud.scanner_positions, dtype=np.float64).reshape(-1, 3))
+        if params.element_status:
+            p(0.9, "status per element")
+            status = element_status(model, xyz, point_type == EXISTING, r, scanners=scanners,
+                                    scan_index=cloud.scan_index, params=params.status)
+        if params.fit_walls and any(e["kind"] == "wall" for e in elements):
+            p(0.95, "new walls")
+            sigma = MAD_TO_SIGMA * reg.residual if np.isfinite(reg.residual) else params.min_distance_threshold
+            walls = fit_new_walls(model, xyz, cluster, elements, sigma=sigma, params=params.walls,
+                                  new=point_type == NEW)
+            normals = apply_rotation(t, cloud.normals) if cloud.normals is not None else None
+            openings = new_openings(model, walls, xyz, normals=normals, scan_index=cloud.scan_index,
+                                    scanners=scanners)
     p(1.0, "done")
     if not claim:
         log.info("change detection: the scan is unregistered: no change claimed")
@@ -406,4 +518,5 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
     log.info("change detection: %d of %d points new, %d redundant faces, %d candidate elements, "
              "residual %.4f m", len(new_idx), len(xyz), len(redundant), len(elements), reg.residual)
     return ChangeResult(reg, r, point_type, sup.distance, sup.patch, cluster, patches,
-                        [pt.key for pt in cov_patches], coverage, cov_patches, redundant, elements, params)
+                        [pt.key for pt in cov_patches], coverage, cov_patches, redundant, elements, params,
+                        status, surf, walls, openings)

@@ -72,8 +72,11 @@ def add_changes(sub) -> None:
     p = sub.add_parser("changes", help="compare a model with a newer scan: new points, redundant surfaces",
                        description="Register SCAN to MODEL (given transform, then ICP), classify the scan "
                                    "points existing/new, measure the coverage of every room face and flag "
-                                   "redundant ones; writes classified_points.ply, coverage.json, "
-                                   "summary.json. Exit code 1 when the scan does not fit the model "
+                                   "redundant ones, give each wall, slab, door and window a status "
+                                   "(installed, incomplete, not installed, no data) and fit new walls; "
+                                   "writes classified_points.ply, coverage.json, elements.json, "
+                                   "summary.json, changes.ifc (and changes.bcf) when something changed, "
+                                   "as_built.ifc with --update. Exit code 1 when the scan does not fit the model "
                                    "(registration failed).")
     p.add_argument("model", metavar="MODEL", help="the (old) model: .json, .ifc, .obj/.ply mesh")
     p.add_argument("scan", metavar="SCAN", help="the (new) scan")
@@ -88,6 +91,9 @@ def add_changes(sub) -> None:
                    help="coarse scan→model 4x4 transform (.npy, .json or text)")
     p.add_argument("--no-icp", action="store_true", help="use the initial transform as is")
     p.add_argument("--no-normals", action="store_true", help="classify by distance and boundary only")
+    p.add_argument("--update", action="store_true",
+                   help="also write as_built.ifc: the model as built (removed walls dropped, new walls added, "
+                        "spaces re-derived)")
     p.add_argument("--force", action="store_true",
                    help="report new points and redundant faces even when the registration failed "
                         "(the summary still says unregistered)")
@@ -165,7 +171,7 @@ def cmd_changes(args) -> int:
         res = detect_changes(model, cloud, params, initial=initial, progress=bar)
     finally:
         bar.close()
-    paths = write_change_outputs(res, cloud, args.out,
+    paths = write_change_outputs(res, cloud, args.out, model=model, update=bool(getattr(args, "update", False)),
                                  extra={"model": os.fspath(args.model), "scan": os.fspath(args.scan)})
     s = res.summary()
     reg = s["registration"]
@@ -173,7 +179,13 @@ def cmd_changes(args) -> int:
         lines = [f"points: {s['points']:,} ({s['new']:,} new, {100 * s['new_share']:.1f} %)",
                  _registration_line(reg),
                  f"room faces: {s['surfaces']}, redundant: {len(s['redundant'])} {', '.join(s['redundant'])}",
-                 f"candidate new elements: {s['new_elements']} ({s['new_walls']} walls)"]
+                 f"candidate new elements: {s['new_elements']} ({s['new_walls']} walls)",
+                 "elements: " + ", ".join(f"{v} {k}" for k, v in s["element_status"].items()),
+                 f"new walls fitted: {len(res.new_walls)}, doors in them: {len(res.new_openings)}"]
+        gone = [e for e in res.element_status if e["status"] == "not installed" and e["type"] == "wall"]
+        if gone:
+            lines.append("not installed: " + ", ".join(f"{e['ifc_class']} {e['name'] or e['id']} ({e['global_id']})"
+                                                       for e in gone))
         if not res.registered:
             lines.append("--force: changes reported although the registration failed; they may be artefacts "
                          "of the misregistration")

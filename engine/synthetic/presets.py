@@ -20,7 +20,10 @@ for some, model variants:
 * ``change_demo`` — docs/method.md §5: ``truth`` is the old model, the cloud scans the changed
   building (two new walls around a storage room, one wall removed between two offices);
   ``cloud.fields["new"]`` is 1 on the new walls; ``variants["changed"]`` is the changed
-  building's truth; the removed wall has ``attributes["removed_in_scan"] = True``.
+  building's truth; the removed wall has ``attributes["removed_in_scan"] = True``;
+* ``change_office`` — docs/method.md §5, like ``change_demo`` on an office of eight rooms on a
+  corridor: the partition between Room 5 and Room 6 removed (one office), two new walls with a
+  door each splitting Room 2 and Room 7 (one office becomes two, twice); windows.
 """
 from __future__ import annotations
 
@@ -332,6 +335,51 @@ def _change_demo_plans():
     return old, new
 
 
+def _change_office_plans():
+    t, h = 0.15, 0.075
+
+    def frac(x, a, b):  # door centre x on the clear stretch a..b of a cell's side
+        return (x - (a + h)) / ((b - h) - (a + h))
+
+    north = [(4.5 * k, 4.5 * (k + 1)) for k in range(4)]
+    south = [(6.0 * k, 6.0 * (k + 1)) for k in range(3)]
+    old_cells = [("Corridor", _rect(0, 0, 18, 2), {"furnished": False})]
+    old_cells += [(f"Room {k + 1}", _rect(a, 2, b, 7)) for k, (a, b) in enumerate(north)]
+    old_cells += [(f"Room {k + 5}", _rect(a, -5.5, b, 0)) for k, (a, b) in enumerate(south)]
+    old_rooms = rooms_from_partition(old_cells, t)
+    nx = [a + 2.25 for a, _ in north]
+    sx = [3.0, 9.0, 16.5]
+    # north rooms first (their south side runs east), south rooms after the corridor (its south
+    # side runs east): the positions are fractions of the room's clear span, from the west
+    old_doors = [Door((f"Room {k + 1}", "Corridor"), frac(x, *north[k])) for k, x in enumerate(nx)]
+    old_doors += [Door(("Corridor", f"Room {k + 5}"), frac(x, *south[k])) for k, x in enumerate(sx)]
+    old_doors.append(_entrance(old_rooms, "Corridor", _W, 0.5, width=1.2))
+    wins = [(f"Room {k + 1}", _N, 0.5, 1.5, 1.4, 0.9) for k in range(4)]
+    old_wins = wins + [("Room 5", _S, 0.5, 1.2, 1.4, 0.9), ("Room 6", _S, 0.5, 1.2, 1.4, 0.9),
+                       ("Room 7", _S, 0.25, 1.2, 1.4, 0.9)]
+    old = FloorPlan("change_office", (PlanStorey(0.0, 3.0, "Ground floor"),), tuple(old_rooms), tuple(old_doors),
+                    interior_thickness=t, exterior_thickness=0.3, windows=tuple(_windows(old_rooms, old_wins)))
+    new_cells = [("Corridor", _rect(0, 0, 18, 2), {"furnished": False}),
+                 ("Room 1", _rect(0, 2, 4.5, 7)), ("Room 2", _rect(4.5, 2, 9, 4.5)),
+                 ("Room 2b", _rect(4.5, 4.5, 9, 7)), ("Room 3", _rect(9, 2, 13.5, 7)), ("Room 4", _rect(13.5, 2, 18, 7)),
+                 ("Room 5", _rect(0, -5.5, 12, 0)), ("Room 7", _rect(12, -5.5, 15, 0)),
+                 ("Room 8", _rect(15, -5.5, 18, 0))]
+    new_rooms = rooms_from_partition(new_cells, t)
+    new_doors = [Door((n, "Corridor"), frac(x, *north[k])) for k, (n, x) in
+                 enumerate(zip(("Room 1", "Room 2", "Room 3", "Room 4"), nx))]
+    new_doors += [Door(("Corridor", "Room 5"), frac(sx[0], 0, 12)), Door(("Corridor", "Room 5"), frac(sx[1], 0, 12)),
+                  Door(("Corridor", "Room 8"), frac(sx[2], 15, 18)),
+                  Door(("Room 2", "Room 2b"), 0.5), Door(("Room 7", "Room 8"), 0.5),
+                  _entrance(new_rooms, "Corridor", _W, 0.5, width=1.2)]
+    new_wins = [("Room 1", _N, 0.5, 1.5, 1.4, 0.9), ("Room 2b", _N, 0.5, 1.5, 1.4, 0.9),
+                ("Room 3", _N, 0.5, 1.5, 1.4, 0.9), ("Room 4", _N, 0.5, 1.5, 1.4, 0.9),
+                ("Room 5", _S, frac(3.0, 0, 12), 1.2, 1.4, 0.9), ("Room 5", _S, frac(9.0, 0, 12), 1.2, 1.4, 0.9),
+                ("Room 7", _S, frac(12 + h + 0.25 * (6 - 2 * h), 12, 15), 1.2, 1.4, 0.9)]
+    new = FloorPlan("change_office_changed", old.storeys, tuple(new_rooms), tuple(new_doors),
+                    interior_thickness=t, exterior_thickness=0.3, windows=tuple(_windows(new_rooms, new_wins)))
+    return old, new
+
+
 _PLANS: dict[str, Callable[[], FloorPlan]] = {
     "office_mw": _office_mw,
     "two_storey_office": _two_storey_office,
@@ -341,6 +389,7 @@ _PLANS: dict[str, Callable[[], FloorPlan]] = {
     "hexagon_hall": _hexagon_hall,
     "eval_demo": _eval_demo_plan,
     "change_demo": lambda: _change_demo_plans()[0],
+    "change_office": lambda: _change_office_plans()[0],
 }
 
 PRESETS = tuple(_PLANS)
@@ -354,8 +403,8 @@ def preset_plans(name: str) -> dict[str, FloorPlan]:
     if name == "eval_demo":
         return {"truth": _eval_demo_plan(), "inacc": _eval_demo_plan(grow=0.05),
                 "incomp": _eval_demo_plan(without_corridor=True), "incorr": _eval_demo_plan(extra_room=True)}
-    if name == "change_demo":
-        old, new = _change_demo_plans()
+    if name in ("change_demo", "change_office"):
+        old, new = _change_demo_plans() if name == "change_demo" else _change_office_plans()
         return {"truth": old, "changed": new}
     return {"truth": _PLANS[name]()}
 
@@ -429,7 +478,7 @@ def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
     plans = preset_plans(name)
     return scene_from_plans(plans, name=name, seed=seed, noise=noise, target_points=target_points,
                             scale=scale, clutter=clutter, furnish_params=furnish_params,
-                            surroundings=surroundings, scanned="changed" if name == "change_demo" else "truth",
+                            surroundings=surroundings, scanned="changed" if name in ("change_demo", "change_office") else "truth",
                             progress=progress, should_stop=should_stop)
 
 
