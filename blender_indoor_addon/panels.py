@@ -211,6 +211,12 @@ class INDOOR_PT_evaluate(_IndoorPanel, bpy.types.Panel):
             layout.template_icon(icon_value=img.preview.icon_id, scale=10.0)
 
 
+_STATUS_COLOUR_NAMES = {"installed": "green", "incomplete": "orange", "not installed": "red", "no data": "grey",
+                        "new": "blue"}
+"""The colour names of :data:`bridge.STATUS_COLORS` for the legend."""
+_MAX_TOPICS = 12
+
+
 class INDOOR_PT_changes(_IndoorPanel, bpy.types.Panel):
     """Change detection against a newer scan: summary and legend."""
 
@@ -245,6 +251,24 @@ class INDOOR_PT_changes(_IndoorPanel, bpy.types.Panel):
             legend.label(text=f"blue 0 → yellow {r:.0f} cm → red ≥ {2 * r:.0f} cm", icon="COLOR")
             legend.label(text="dark grey: no surface nearby")
         legend.label(text="Surfaces: red uncovered → green covered")
+        statuses = s.get("statuses") or {}
+        if statuses:  # the model's elements coloured by status: legend, counts, select
+            col = layout.box().column(align=True)
+            col.label(text="Elements by status", icon="OUTLINER_OB_GROUP_INSTANCE")
+            for status, icon in (("installed", "CHECKMARK"), ("incomplete", "ERROR"),
+                                 ("not installed", "CANCEL"), ("no data", "QUESTION"), ("new", "ADD")):
+                row = col.row(align=True)
+                row.label(text=f"{_STATUS_COLOUR_NAMES[status]}: {status}  {statuses.get(status, 0)}", icon=icon)
+                if statuses.get(status):
+                    row.operator("indoor.select_by_status", text="", icon="RESTRICT_SELECT_OFF").status = status
+        topics = s.get("topics") or []
+        if topics:  # what changes.bcf holds: one topic per change, with its element
+            col = layout.box().column(align=True)
+            col.label(text=f"BCF topics ({len(topics)})", icon="TEXT")
+            for t in topics[:_MAX_TOPICS]:
+                col.label(text=f"{t['title']}" + (f" → {t['object']}" if t.get("object") else ""))
+            if len(topics) > _MAX_TOPICS:
+                col.label(text=f"… and {len(topics) - _MAX_TOPICS} more (changes.bcf)")
 
 
 class INDOOR_PT_export(_IndoorPanel, bpy.types.Panel):

@@ -35,13 +35,15 @@ from .overlays import (COVERAGE_RAMP, CURVE_BEVEL, FLAG_ALPHA, GRAPH_OBJECTS, OV
                        OVERLAY_MATERIAL, PATH_OBJECT, PLAIN_ALPHA, TOPOLOGY_COLLECTION, graph_shown,
                        graph_to_curve, overlay_material, patches_to_objects, path_to_curve,
                        polylines_to_curve, ramp, refresh_overlays, remove_graph, spline_points)
-from .results import (CHANGES_COLLECTION, CHANGE_DISTANCE, CHANGE_DISTANCE_COLOR, CHANGE_MATERIAL,
+from .results import (NEW_ELEMENTS_COLLECTION, STATUS_COLORS, STATUS_PROP, objects_with_status, status_overlay,
+                      CHANGES_COLLECTION, CHANGE_DISTANCE, CHANGE_DISTANCE_COLOR, CHANGE_MATERIAL,
                       CHANGE_TYPE, CHANGE_TYPE_COLOR, DISTANCE_RAMP, EVALUATION_COLLECTION, EVALUATION_IMAGE,
                       NO_SURFACE_COLOR, TYPE_COLORS_CHANGE, change_material, change_overlay, changed_scans,
                       evaluation_overlay, set_change_colors)
 
 __all__ = [
     "collections", "overlays", "points", "results", "shapes", "storage", "ensure_collection",
+    "NEW_ELEMENTS_COLLECTION", "STATUS_COLORS", "STATUS_PROP", "objects_with_status", "status_overlay",
     "clear_collection", "remove_object", "remove_objects", "DataSnapshot", "undo_on_failure",
     "SCAN_COLLECTION", "POINTS_NODE_GROUP", "POINTS_MODIFIER", "OFFSET_PROP", "SOURCE_PROP", "COUNT_PROP",
     "IN_RATIO", "IN_RADIUS", "IN_MATERIAL", "IN_SEED", "IN_USE_SECTION", "IN_SECTION_Z", "HEIGHT_COLOR",

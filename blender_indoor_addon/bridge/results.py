@@ -11,18 +11,28 @@ import numpy as np
 from mathutils import Matrix
 
 from ...engine.geometry.transforms import frame_transform
-from .collections import clear_collection
+from .collections import clear_collection, ensure_collection
 from .overlays import patches_to_objects, ramp
 from .points import is_point_mesh, set_display, write_attribute
-from .shapes import model_matrix
+from .shapes import SHAPE_PROP, _shape_object, model_matrix, model_objects
 
-__all__ = ["CHANGES_COLLECTION", "EVALUATION_COLLECTION", "CHANGE_TYPE", "CHANGE_DISTANCE",
+__all__ = ["CHANGES_COLLECTION", "NEW_ELEMENTS_COLLECTION", "STATUS_PROP", "STATUS_COLORS", "status_overlay",
+           "objects_with_status", "EVALUATION_COLLECTION", "CHANGE_TYPE", "CHANGE_DISTANCE",
            "CHANGE_TYPE_COLOR", "CHANGE_DISTANCE_COLOR", "CHANGE_MATERIAL", "TYPE_COLORS_CHANGE",
            "DISTANCE_RAMP", "NO_SURFACE_COLOR", "EVALUATION_IMAGE", "change_material", "set_change_colors",
            "changed_scans", "change_overlay", "evaluation_overlay"]
 
 CHANGES_COLLECTION = "Changes"
 """Collection of the room faces coloured by coverage (change detection)."""
+NEW_ELEMENTS_COLLECTION = "New elements"
+"""Collection of the walls (and their doors) fitted to a newer scan's new points."""
+STATUS_PROP = "indoor_change_status"
+"""Object property: the element's status against the newer scan (installed, incomplete, not
+installed, no data; "new" for the fitted walls)."""
+STATUS_COLORS = {"installed": (0.20, 0.66, 0.30, 1.0), "incomplete": (0.95, 0.65, 0.10, 1.0),
+                 "not installed": (0.90, 0.12, 0.10, 1.0), "no data": (0.55, 0.55, 0.58, 1.0),
+                 "new": (0.15, 0.45, 0.95, 1.0)}
+"""Object colour (RGBA; Workbench "Object" colour) of each status, as the panel's legend lists them."""
 EVALUATION_COLLECTION = "Evaluation"
 """Collection of the reference / source surfaces coloured by the evaluation."""
 CHANGE_TYPE = "change_type"
@@ -35,8 +45,9 @@ CHANGE_DISTANCE_COLOR = "change_distance_color"
 """BYTE_COLOR POINT attribute: distance on :data:`DISTANCE_RAMP` (0 → 2 r), grey when none."""
 CHANGE_MATERIAL = "Indoor Changes"
 """Material of a scan showing its change colours (reads one of the two colour attributes)."""
-TYPE_COLORS_CHANGE = {0: (0.55, 0.55, 0.58), 1: (0.90, 0.12, 0.10), 2: (0.30, 0.30, 0.30)}
-"""sRGB colours of existing (0), new (1) and unclassified (2: the scan is unregistered) points."""
+TYPE_COLORS_CHANGE = {0: (0.55, 0.55, 0.58), 1: (0.90, 0.12, 0.10), 2: (0.30, 0.30, 0.30), 3: (0.67, 0.82, 0.63)}
+"""sRGB colours of existing (0), new (1), unclassified (2: the scan is unregistered) and outside
+(3: beyond the model's plan, seen through windows) points."""
 DISTANCE_RAMP = ((0.0, (0.15, 0.35, 0.85)), (0.5, (0.95, 0.85, 0.20)), (1.0, (0.90, 0.12, 0.10)))
 """(position 0–1 of [0, 2 r], sRGB) stops of the distance colours: blue 0 → yellow r → red ≥ 2 r."""
 NO_SURFACE_COLOR = (0.35, 0.35, 0.35)
@@ -124,13 +135,67 @@ def change_overlay(obj, result, model, *, mode: str = "TYPE", scene=None) -> dic
     patches_to_objects(result.coverage_patches, result.coverage, collection=CHANGES_COLLECTION,
                        attribute="coverage", flagged=result.redundant, matrix=model_matrix(model),
                        prefix="Coverage ", scene=scene)
+    statuses, topics = status_overlay(result, model, scene=scene)
     s = result.summary()
-    summary = {"scan": obj.name, "points": s["points"], "existing": s["existing"], "new": s["new"],
+    summary = {"statuses": statuses, "topics": topics, "scan": obj.name, "points": s["points"], "existing": s["existing"], "new": s["new"],
                "new_share": s["new_share"], "distance_threshold_m": s["distance_threshold_m"],
                "surfaces": s["surfaces"], "redundant": s["redundant"], "new_elements": s["new_elements"],
                "new_walls": s["new_walls"], "fitness": s["registration"].get("fitness"),
                "rmse_m": s["registration"].get("rmse_point_to_plane_m")}
     return summary
+
+
+def status_overlay(result, model, *, scene=None) -> tuple[dict, list]:
+    """Colour the model's walls, slabs, doors and windows by their status against the newer
+    scan (:data:`STATUS_COLORS`, property :data:`STATUS_PROP` and ``indoor_change_coverage``),
+    and add the walls fitted to the new points (with their doors) to the "New elements"
+    collection, status "new".
+
+    Returns ``(counts per status, topics)``: the topics are the BCF topics ``indoor changes``
+    writes (one per change, :func:`engine.change.report.bcf_topics`), each with the name of the
+    Blender object it is about (``object``; None when the model has no object for it).
+    """
+    from ...engine.change.report import bcf_topics
+
+    scene = scene or bpy.context.scene
+    by_id = {str(o[SHAPE_PROP]): o for o in model_objects(scene)}
+    counts = {k: 0 for k in STATUS_COLORS}
+    obj_of_gid = {}
+    for e in result.element_status:
+        counts[e["status"]] = counts.get(e["status"], 0) + 1
+        o = by_id.get(str(e["id"]))
+        if o is None:
+            continue
+        o[STATUS_PROP] = e["status"]
+        o["indoor_change_coverage"] = float(e["coverage"])
+        o.color = STATUS_COLORS.get(e["status"], STATUS_COLORS["no data"])
+        obj_of_gid[e["global_id"]] = o.name
+    clear_collection(NEW_ELEMENTS_COLLECTION, scene)
+    new_objects = {}
+    if result.new_walls or result.new_openings:
+        coll = ensure_collection(NEW_ELEMENTS_COLLECTION, scene)
+        matrix = model_matrix(model)
+        for shape in [w["shape"] for w in result.new_walls] + list(result.new_openings):
+            o = _shape_object(shape, matrix)
+            o[STATUS_PROP] = "new"
+            o.color = STATUS_COLORS["new"]
+            coll.objects.link(o)
+            new_objects[shape.id] = o.name
+        counts["new"] = len(result.new_walls)
+    topics = []
+    for t in bcf_topics(model, result, {}):
+        name = obj_of_gid.get(t["guid"]) if t["guid"] else None
+        if t["status"] == "new":
+            wid = next((w["id"] for w in result.new_walls if t["title"].startswith(f"IfcWall {w['name']}:")), None)
+            name = new_objects.get(wid)
+        topics.append({"title": t["title"], "status": t["status"], "guid": t["guid"], "object": name})
+    return counts, topics
+
+
+def objects_with_status(status: str, scene=None) -> list:
+    """The model's and the new elements' objects whose change status is ``status``."""
+    scene = scene or bpy.context.scene
+    return [o for o in scene.objects if o.get(STATUS_PROP) == status]
 
 
 # --------------------------------------------------------------------------- evaluation

@@ -15,7 +15,7 @@ elements are the engine's :mod:`engine.topology.elements`), :mod:`.analysis` (De
 from __future__ import annotations
 
 from . import analysis, common, engine_call, reconstruction, review, scan
-from .analysis import INDOOR_OT_detect_changes, INDOOR_OT_evaluate
+from .analysis import INDOOR_OT_detect_changes, INDOOR_OT_evaluate, INDOOR_OT_select_by_status
 from .engine_call import EngineCall, report_failure
 from .reconstruction import (INDOOR_OT_cancel_reconstruct, INDOOR_OT_load_parameters, INDOOR_OT_reconstruct,
                              INDOOR_OT_save_parameters, reconstruct_params, running_job, scene_params,
@@ -30,12 +30,12 @@ __all__ = ["analysis", "common", "engine_call", "reconstruction", "review", "sca
            "INDOOR_OT_load_parameters", "INDOOR_OT_save_parameters", "INDOOR_OT_reclassify",
            "INDOOR_OT_insert_door", "INDOOR_OT_revert_edit", "INDOOR_OT_show_graph",
            "INDOOR_OT_shortest_path",
-           "INDOOR_OT_detect_changes", "INDOOR_OT_evaluate", "INDOOR_OT_export_ifc", "SCAN_EXTENSIONS",
+           "INDOOR_OT_detect_changes", "INDOOR_OT_select_by_status", "INDOOR_OT_evaluate", "INDOOR_OT_export_ifc", "SCAN_EXTENSIONS",
            "CLASSES", "menu_import", "menu_export", "bonsai_available", "running_job", "stop_running_job",
            "scene_params", "reconstruct_params"]
 
 CLASSES = (INDOOR_OT_import_scan, INDOOR_OT_reconstruct, INDOOR_OT_cancel_reconstruct,
            INDOOR_OT_load_parameters, INDOOR_OT_save_parameters, INDOOR_OT_reclassify, INDOOR_OT_insert_door,
            INDOOR_OT_revert_edit, INDOOR_OT_show_graph, INDOOR_OT_shortest_path, INDOOR_OT_detect_changes,
-           INDOOR_OT_evaluate, INDOOR_OT_export_ifc)
+           INDOOR_OT_select_by_status, INDOOR_OT_evaluate, INDOOR_OT_export_ifc)
 """Every operator class, in registration order."""

@@ -6,7 +6,7 @@ import os
 import tempfile
 
 import bpy
-from bpy.props import BoolProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 
 from ...engine.change import detect_changes
@@ -17,7 +17,7 @@ from .common import has_model, stored_or_report
 from .engine_call import engine_call
 from .scan import SCAN_EXTENSIONS
 
-__all__ = ["INDOOR_OT_detect_changes", "INDOOR_OT_evaluate"]
+__all__ = ["INDOOR_OT_detect_changes", "INDOOR_OT_select_by_status", "INDOOR_OT_evaluate"]
 
 
 class INDOOR_OT_detect_changes(bpy.types.Operator, ImportHelper):
@@ -74,6 +74,37 @@ class INDOOR_OT_detect_changes(bpy.types.Operator, ImportHelper):
             return {"FINISHED"}
         self.report({"INFO"}, f"{summary['new']:,} new of {summary['points']:,} points; "
                               f"{len(summary['redundant'])} of {summary['surfaces']} surfaces redundant")
+        return {"FINISHED"}
+
+
+class INDOOR_OT_select_by_status(bpy.types.Operator):
+    """Select the elements with this change status (after Detect Changes)"""
+
+    bl_idname = "indoor.select_by_status"
+    bl_label = "Select by Status"
+    bl_options = {"REGISTER", "UNDO"}
+
+    status: EnumProperty(name="Status", items=[
+        ("installed", "Installed", "Seen where the model has it"),
+        ("incomplete", "Incomplete", "Partly seen, part of it proven absent"),
+        ("not installed", "Not installed", "Proven absent: the scanner saw through where it should be"),
+        ("no data", "No data", "Not seen, nothing proves it absent"),
+        ("new", "New", "Fitted to the new points of the scan")])
+    extend: BoolProperty(name="Extend", default=False, description="Add to the selection")
+
+    def execute(self, context):
+        found = bridge.objects_with_status(self.status, context.scene)
+        if not found:
+            self.report({"WARNING"}, f"No element is '{self.status}': run Detect Changes first")
+            return {"CANCELLED"}
+        if not self.extend:
+            for o in context.selected_objects:
+                o.select_set(False)
+        for o in found:
+            o.hide_set(False)
+            o.select_set(True)
+        context.view_layer.objects.active = found[0]
+        self.report({"INFO"}, f"{len(found)} elements {self.status}")
         return {"FINISHED"}
 
 

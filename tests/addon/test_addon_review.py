@@ -271,6 +271,25 @@ def test_detect_changes_on_active_scan(addon, change_demo):
     summary = json.loads(scene.indoor.change_summary)
     # the summary counts the operator's own points (the mesh attribute), not the second run's
     assert summary["new"] == int(np.sum(got_type == 1)) and summary["redundant"] == expect.redundant
+    # the model's elements coloured by status: the removed partition is the one wall "not installed"
+    gone = [e for e in expect.element_status if e["status"] == "not installed" and e["type"] == "wall"]
+    assert len(gone) == 1
+    flagged = bridge.objects_with_status("not installed", scene)
+    walls = [o for o in flagged if o["indoor_type"] == "wall"]
+    assert [o[bridge.shapes.SHAPE_PROP] for o in walls] == [gone[0]["id"]]
+    assert tuple(walls[0].color) == pytest.approx(bridge.STATUS_COLORS["not installed"])
+    assert summary["statuses"]["not installed"] >= 1 and summary["statuses"]["installed"] >= 10
+    # the fitted walls are objects of their own, status "new"; each topic names its object
+    new = list(scene.collection.children[bridge.NEW_ELEMENTS_COLLECTION].objects)
+    assert sum(o["indoor_type"] == "wall" for o in new) == len(expect.new_walls) == summary["statuses"]["new"] >= 1
+    assert {t["status"] for t in summary["topics"]} == {"not installed", "new"}
+    assert all(t["object"] in bpy.data.objects for t in summary["topics"])
+    assert next(t for t in summary["topics"] if t["status"] == "not installed")["object"] == walls[0].name
+    # select by status: exactly those objects
+    assert bpy.ops.indoor.select_by_status(status="not installed") == {"FINISHED"}
+    assert set(bpy.context.selected_objects) == set(flagged)
+    assert bpy.ops.indoor.select_by_status(status="new") == {"FINISHED"}
+    assert {o.name for o in bpy.context.selected_objects} == {o.name for o in new}
 
 
 def test_detect_changes_from_file_and_bad_file_leaves_scene(addon, change_demo, tmp_path):
@@ -480,7 +499,11 @@ def test_panels_only_read_cached_data(addon, office, monkeypatch):
     scene.indoor.change_summary = json.dumps({"scan": "s", "points": 10, "existing": 7, "new": 3,
                                               "new_share": 0.3,
                                               "distance_threshold_m": 0.05, "surfaces": 4, "redundant": ["a"],
-                                              "new_elements": 1, "new_walls": 1})
+                                              "new_elements": 1, "new_walls": 1,
+                                              "statuses": {"installed": 9, "not installed": 1, "new": 2},
+                                              "topics": [{"title": "IfcWall Wall 3: not installed",
+                                                          "status": "not installed", "guid": "g",
+                                                          "object": "Wall 3"}]})
     scene.indoor.eval_summary = json.dumps({"buffer_m": 0.05, "completeness": 0.8, "correctness": 0.9,
                                             "accuracy_m": 0.01, "missing": ["x"], "redundant": []})
     _select(_by_shape(r1.id))
@@ -508,6 +531,8 @@ def test_panels_only_read_cached_data(addon, office, monkeypatch):
     assert "Room 1" in topo and "Room 5" in topo and "m centre to centre" in topo
     assert any("3 new of 10" in t for t in drawn["Changes"])
     assert any("grey: existing" in t for t in drawn["Changes"])
+    assert any("red: not installed  1" in t for t in drawn["Changes"])
+    assert any("IfcWall Wall 3: not installed → Wall 3" in t for t in drawn["Changes"])
     assert any("Completeness 80.0%" in t for t in drawn["Evaluate"])
     assert any("Room 1" in t for t in drawn["Review and fix"])
 
