@@ -94,9 +94,11 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
     else:
         model = generic_model(prep, params.generic, rng=gen, progress=p.sub(0.4, 1.0))
     if not model.spaces:
-        raise ReconstructionError(
-            f"no space found ({model.provenance.method} method): the scan shows no closed room "
-            "(floor, ceiling and walls around it)", cloud.source or None)
+        ev = model.provenance.trace.get("evidence") or {}
+        stage = (f"the evidence rule rejected all {ev['spaces_before']} spaces as too narrow, small or low"
+                 if ev.get("spaces_before") else "the scan shows no closed room (floor, ceiling and walls around it)")
+        raise ReconstructionError(f"no space found ({model.provenance.method} method): {stage}",
+                                  cloud.source or None)
     p(0.97, "walls, slabs and openings")
     model = building_elements(model, drop_nonfinite(cloud), params.elements)  # points beyond windows too
     prov = model.provenance

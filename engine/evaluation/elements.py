@@ -54,6 +54,7 @@ from ..errors import InputError
 from ..geometry.polygon import polygon_parts
 from ..geometry.transforms import apply_transform, frame_transform
 from ..model import BuildingModel, Shape, ShapeType
+from .groups import DisjointSets
 from .loading import transform_model
 
 __all__ = ["ElementMatchParams", "evaluate_elements", "true_wall_runs", "exterior_outline"]
@@ -469,14 +470,7 @@ def true_wall_runs(model: BuildingModel,
     for w in walls:
         fps.setdefault(w.storey, []).append(_plan(w, model).buffer(params.run_gap / 2 + 1e-6))
     fill = {k: unary_union(v) for k, v in fps.items()}
-    parent = list(range(n))
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
+    sets = DisjointSets(n)
     cos_t = math.cos(params.run_angle)
     for i in range(n):
         p0, p1, ti = axes[i]
@@ -498,11 +492,8 @@ def true_wall_runs(model: BuildingModel,
                 seg = LineString([p0 + d * lo, p0 + d * hi])
                 if not fill[walls[i].storey].contains(seg):
                     continue
-            parent[find(i)] = find(j)
-    groups: dict[int, list[str]] = {}
-    for i, w in enumerate(walls):
-        groups.setdefault(find(i), []).append(w.id)
-    return sorted(groups.values(), key=lambda g: g[0])
+            sets.union(i, j)
+    return sorted(([walls[i].id for i in g] for g in sets.groups()), key=lambda g: g[0])
 
 
 # ----------------------------------------------------------------------------- entry point

@@ -59,7 +59,7 @@ from .geometry import box_of
 from .ipof import grid_face_index
 from .params import ManhattanParams, params_from_data
 from .place import StoreyFrame, detect_levels, histogram_peaks, storey_chunks, storey_frame
-from .rules import classify, derive_topology
+from .rules import classify, derive_topology, reject_implausible_spaces
 
 __all__ = ["manhattan_model", "reconstruct_manhattan", "reconstruct_grammar", "place_storey"]
 
@@ -340,7 +340,78 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             types[i, j, k] = ShapeType.WALL
             shapes[(i, j, k)] = s.logged(f"classify: wall junction, {walls} neighbouring walls -> wall",
                                          type=ShapeType.WALL, terminal=True)
+    _open_voids(shapes, types, xyz, normals, frame, params)
     return [shapes[key] for key in sorted(shapes)]
+
+
+def _open_voids(shapes: dict, types: np.ndarray, xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame,
+                params: ManhattanParams) -> None:
+    """Rooms whose ceiling is not there (a double-height void, a stair hall open to the
+    floor above) or is seen only through openings (issue 19), in place.
+
+    An exterior cuboid of the top z layer with floor evidence (IPoF(bottom) ≥ τ) whose column
+    is open upwards — scan points above its top cover at least τ of its footprint while no
+    floor of a storey above does (horizontal points within ``void_floor_band`` above the
+    top cover less than τ; less than 1 − τ for a thin cuboid under the slab's edge) — is interior when its walls close it: every side face is seen (IPoF ≥ τ) or
+    touches an interior, wall or another such cuboid (a fixed point: candidates with an open
+    side drop out until none does). Those parts get ``attributes["ceiling_seen"] = False``.
+    """
+    nx, ny, nz = types.shape
+    k = nz - 1
+    tau = params.tau
+    cand = {(i, j) for i in range(nx) for j in range(ny)
+            if types[i, j, k] == ShapeType.EXTERIOR and shapes[(i, j, k)].support.get("ipof_bottom", 0.0) >= tau}
+    if not cand:
+        return
+    top = float(frame.ceiling)
+    d = float(params.shape_buffer)
+    band = (xyz[:, 2] > top + 2 * d) & (xyz[:, 2] <= top + params.void_height)
+    if not band.any():
+        return
+    cell = params.level_cell
+    hor = np.abs(normals[:, 2]) >= np.cos(params.normal_angle)
+    upper_floor = band & hor & (xyz[:, 2] <= top + params.void_floor_band)
+    above_cells = _cell_lookup(xyz[band, :2], cell)
+    floor_cells = _cell_lookup(xyz[upper_floor, :2], cell)
+    open_up = set()
+    for (i, j) in cand:
+        b = shapes[(i, j, k)].bounds
+        lo, hi = np.floor((b[0, :2] + d) / cell).astype(np.int64), np.floor((b[1, :2] - d) / cell).astype(np.int64)
+        if np.any(hi < lo):
+            continue
+        gx, gy = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1), indexing="ij")
+        cells = np.column_stack([gx.ravel(), gy.ravel()])
+        # a thin cuboid (under the edge of the slab above) may be partly covered
+        thin = shapes[(i, j, k)].attributes.get("thin_axis") is not None
+        if above_cells(cells).mean() >= tau and floor_cells(cells).mean() < (1.0 - tau if thin else tau):
+            open_up.add((i, j))
+    closed_types = (ShapeType.INTERIOR, ShapeType.WALL)
+    sides = ((2, 0, -1), (3, 1, 0), (4, 0, 1), (5, -1, 0))  # face index, di, dj
+    changed = True
+    while changed:
+        changed = False
+        for (i, j) in sorted(open_up):
+            sup = shapes[(i, j, k)].support
+            for f, di, dj in sides:
+                if sup.get(f"ipof_f{f}", 0.0) >= tau:
+                    continue
+                q = (i + di, j + dj)
+                if not (0 <= q[0] < nx and 0 <= q[1] < ny):
+                    break
+                if q in open_up or types[q[0], q[1], k] in closed_types:
+                    continue
+                break
+            else:
+                continue
+            open_up.discard((i, j))
+            changed = True
+    for (i, j) in open_up:
+        s = shapes[(i, j, k)]
+        types[i, j, k] = ShapeType.INTERIOR
+        shapes[(i, j, k)] = s.logged("classify: floor seen, ceiling absent or seen only through openings, open "
+                                     "upwards and closed by walls -> interior (lower confidence)",
+                                     type=ShapeType.INTERIOR, terminal=False,
+                                     attributes={**s.attributes, "ceiling_seen": False})
 
 
 # --------------------------------------------------------------------------- the procedure
@@ -400,9 +471,13 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
     t2 = time.perf_counter()
     parts, model_storeys = [], []
     T = np.eye(4) if transform is None else np.asarray(transform, dtype=np.float64)
+    sloped = []
     for si, fr in enumerate(frames):
         p(0.3 + 0.5 * si / len(frames), f"storey {si}: place and classify")
-        parts.extend(place_storey(xyz, normals, fr, si, params, spacing))
+        sx, sn = _with_sloped_ceiling(xyz, normals, fr, params)
+        if sx is not xyz:
+            sloped.append(si)
+        parts.extend(place_storey(sx, sn, fr, si, params, spacing))
         elev = float((T @ np.array([0.0, 0.0, fr.floor, 1.0]))[2] + cloud.offset[2])
         model_storeys.append(Storey(si, fr.floor, fr.ceiling, f"Storey {si}", elev))
     timings["place_classify"] = time.perf_counter() - t2
@@ -413,14 +488,70 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
                                                 source=cloud.source, software="indoor engine"),
                           name=cloud.source or "manhattan model")
     model = derive_topology(model, params.tau)
+    n_spaces = len(model.spaces)
+    model = reject_implausible_spaces(model, params.min_space_width, params.min_space_area,
+                                      params.min_space_height, params.tau)
+    model = _ceiling_confidence(model)
     timings["topology"] = time.perf_counter() - t3
     model = model.with_(provenance=Provenance(
         method="manhattan", parameters=params.to_dict(), timings=timings,
         trace={"storeys": [{"floor": f.floor, "ceilings": list(f.ceilings)} for f in frames],
-               "cuboids": len(parts)},
+               "cuboids": len(parts), "sloped_storeys": sloped,
+               "evidence": {"spaces_before": n_spaces, "spaces_after": len(model.spaces)}},
         source=cloud.source, software="indoor engine"))
     p(1.0, "done")
     return model
+
+
+def _with_sloped_ceiling(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, params: ManhattanParams):
+    """(xyz, normals) with the roof undersides of an attic storey projected onto its top.
+
+    A storey whose top is sloped (pitched roof slabs, no flat ceiling over most of it) has
+    more sloped points (``sloped_normal_min`` ≤ |n_z| < cos θ) in its upper half than
+    horizontal points at its top level: those sloped points are copied onto the top level
+    (normal up), so the grammar sees the ceiling that covers the rooms under the roof and
+    the storey's grid reaches the roof's seen extent (every sloped point higher than
+    ``sloped_min_height`` above the floor, down to the eaves, over the storey's floor).
+    Other storeys: the input unchanged.
+    """
+    cos_t = np.cos(params.normal_angle)
+    nz = np.abs(normals[:, 2])
+    d = float(params.shape_buffer)
+    top = frame.ceiling
+    upper = (xyz[:, 2] > frame.floor + 0.5 * (top - frame.floor)) & (xyz[:, 2] <= top + d)
+    slope = upper & (nz >= params.sloped_normal_min) & (nz < cos_t)
+    flat = (np.abs(xyz[:, 2] - top) <= d) & (nz >= cos_t)
+    ns, nf = int(slope.sum()), int(flat.sum())
+    if ns <= params.sloped_ceiling_ratio * max(nf, 1):
+        return xyz, normals
+    log.info("storey at z = %.2f: sloped top (%d sloped, %d flat points at %.2f m); roof undersides "
+             "projected onto the top", frame.floor, ns, nf, top)
+    low = (xyz[:, 2] > frame.floor + params.sloped_min_height) & (xyz[:, 2] <= top + d)
+    q = xyz[low & (nz >= params.sloped_normal_min) & (nz < cos_t)].copy()  # down to the eaves
+    cell = 2.0 * params.level_cell  # only over the storey's floor (not the roof seen from outside)
+    on_floor = _cell_lookup(xyz[(np.abs(xyz[:, 2] - frame.floor) <= d) & (nz >= cos_t), :2], cell)
+    q = q[on_floor(np.floor(q[:, :2] / cell).astype(np.int64))]
+    q[:, 2] = top
+    up = np.zeros_like(q)
+    up[:, 2] = 1.0
+    return np.vstack([xyz, q]), np.vstack([normals, up])
+
+
+def _ceiling_confidence(model: BuildingModel) -> BuildingModel:
+    """Spaces with parts whose ceiling was not seen (:func:`_open_voids`) get
+    ``attributes["ceiling_seen"]`` (the seen share of their footprint) and a lower
+    ``attributes["confidence"]`` = 0.5 + 0.5 · that share (1 otherwise)."""
+    new = []
+    for sp in model.spaces:
+        parts = [model[c] for c in sp.children if c in model]
+        if not any(p.attributes.get("ceiling_seen") is False for p in parts):
+            continue
+        area = np.array([p.geometry.plan_area_perimeter()[0] for p in parts])
+        seen = np.array([p.attributes.get("ceiling_seen") is not False for p in parts])
+        share = float(area[seen].sum() / area.sum()) if area.sum() > 0 else 0.0
+        new.append(sp.with_(attributes={**sp.attributes, "ceiling_seen": round(share, 3),
+                                        "confidence": round(0.5 + 0.5 * share, 3)}))
+    return model.replace_shapes(*new) if new else model
 
 
 def _complete_params(xyz, params):

@@ -229,6 +229,27 @@ class ManhattanParams:
     """A space whose footprint is this many times longer than wide is named a corridor."""
     corridor_max_width: Metres = 2.5
     """A corridor (see ``corridor_aspect``) is at most this wide, metres."""
+    min_space_width: Metres = 0.6
+    """A space narrower than this is the gap between the faces of one wall (doubled wall
+    lines, a party wall): it becomes wall (issue 19), metres."""
+    min_space_area: SquareMetres = 1.0
+    """A space smaller than this is no room (it becomes exterior), m²."""
+    min_space_height: Metres = 1.8
+    """A space lower than this (a band between two ceiling levels) is no room, metres."""
+    void_height: Metres = 3.0
+    """Points up to this far above a storey's top, over a cuboid without a seen ceiling, tell
+    that its column is open upwards (a double-height void), metres."""
+    void_floor_band: Metres = 0.6
+    """Horizontal points up to this far above the storey's top are the floor of a storey above
+    (then the column is not open), metres."""
+    sloped_normal_min: Ratio = 0.2
+    """Points whose normal has |n_z| from this up to cos θ are sloped (roof undersides)."""
+    sloped_min_height: Metres = 0.5
+    """Sloped points this far above an attic's floor and higher are roof undersides, metres."""
+    sloped_ceiling_ratio: Factor = 3.0
+    """A storey whose upper half holds this many times more sloped points than horizontal
+    points at its top level has a sloped top (an attic): its roof undersides stand for the
+    ceiling."""
     level_cell: Metres = 0.25
     """Cell of the 2D occupancy grid that tells ceilings (nothing above) from desks, metres."""
     level_exposed: Ratio = 0.5

@@ -30,7 +30,7 @@ from ..model import BuildingModel, Relation, Shape, ShapeType
 from .geometry import box_of, shared_faces, union_of_boxes
 
 __all__ = ["classify", "part_relations", "merge", "space_relations", "derive_topology",
-           "wall_with_openings", "is_part", "DEFAULT_TAU"]
+           "wall_with_openings", "is_part", "reject_implausible_spaces", "DEFAULT_TAU"]
 
 log = logging.getLogger(__name__)
 
@@ -388,6 +388,59 @@ def derive_topology(model: BuildingModel, tau: Optional[float] = None) -> Buildi
     order = {s.id: i for i, s in enumerate(model.shapes)}
     shapes.sort(key=lambda s: order.get(s.id, len(order)))
     return model.with_(shapes=tuple(shapes), relations=tuple(dict.fromkeys(rel)))
+
+
+def _equivalent_width(area: float, perimeter: float) -> float:
+    """Shorter side of the rectangle with this area and perimeter (√area when the shape is
+    more compact than a square): how wide a plan is, for any outline."""
+    h = perimeter / 2.0
+    disc = h * h - 4.0 * area
+    if area <= 0 or perimeter <= 0:
+        return 0.0
+    if disc <= 0:
+        return float(np.sqrt(area))
+    return float((h - np.sqrt(disc)) / 2.0)
+
+
+def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: float, min_height: float,
+                              tau: Optional[float] = None) -> BuildingModel:
+    """Evidence rule for spaces (issue 19), a reclassification of parts followed by
+    :func:`derive_topology`:
+
+    * a merged interior space narrower than ``min_width`` (the smaller side of its box, or
+      twice its area over its perimeter for other shapes) is the gap between the two faces of
+      one wall (doubled wall lines, a party wall): its parts become wall;
+    * one lower than ``min_height`` (a band between two ceiling levels) or smaller than
+      ``min_area`` is not a room: its parts become exterior.
+
+    Models without parts are returned unchanged.
+    """
+    parts = {s.id: s for s in model.shapes if is_part(s)}
+    if not parts:
+        return model
+    new = []
+    for sp in model.spaces:
+        if not sp.attributes.get("merged"):
+            continue
+        members = [parts[c] for c in sp.children if c in parts]
+        if not members:
+            continue
+        size = sp.scope.size
+        area, perim = sp.geometry.plan_area_perimeter()
+        width = min(float(min(size[0], size[1])), _equivalent_width(area, perim))
+        height = float(sp.attributes.get("height", size[2]))
+        if width < min_width:
+            kind, why = ShapeType.WALL, f"{width:.2f} m wide < {min_width} m: the gap inside a wall"
+        elif height < min_height or area < min_area:
+            kind, why = ShapeType.EXTERIOR, f"{area:.2f} m², {height:.2f} m high: too small or low for a room"
+        else:
+            continue
+        for m in members:
+            new.append(m.with_(type=kind, log=tuple(m.log) + (f"evidence: {sp.id} {why} -> {kind.value}",)))
+    if not new:
+        return model
+    log.info("evidence rule: %d part(s) of implausible spaces reclassified", len(new))
+    return derive_topology(model.replace_shapes(*new), tau)
 
 
 def _name(merged: list[Shape], corridor_aspect: float, corridor_width: float) -> list[Shape]:

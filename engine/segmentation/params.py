@@ -136,6 +136,9 @@ class StoreyParams:
     floor belong to the same storey, metres."""
     angle_tolerance: Radians = THETA
     """A normal within this angle of vertical is a horizontal-surface normal, radians."""
+    sloped_top_quantile: Ratio = 0.99
+    """A storey without a flat ceiling (attic under a pitched roof) reaches this quantile of
+    the heights of the downward-facing points above its floor (the ridge)."""
 
 
 @dataclass(frozen=True)

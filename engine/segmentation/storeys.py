@@ -14,7 +14,9 @@ Method
    footprint are counted in a thin window just above it and just below it. Walls rise
    from a floor and hang from a ceiling, and nothing lies inside a slab, so
    contrast = (above − below)/(above + below) is near +1 for a floor, −1 for a ceiling
-   and near 0 for furniture tops (legs below, walls above). Layers with
+   and near 0 for furniture tops (legs below, walls above); points within 2 ×
+   ``layer_half_width`` of another layer close by (a ceiling just under the floor of the
+   storey above, its noisy normals) are not counted. Layers with
    |contrast| < ``min_side_contrast`` are dropped. When scanner positions are known, a
    floor must lie below a scanner and a ceiling above one (a tie-breaker for real scans).
 4. Pairing: floors in ascending order; floors less than ``min_storey_height`` above the
@@ -22,8 +24,11 @@ Method
    the highest ceiling layer at least ``min_storey_height`` above its floor and below the
    next storey's floor (rooms of several heights: the storey reaches the highest; the
    lower ceilings are in :func:`detect_layers` and become cell levels).
+5. Sloped tops: a floor without a flat ceiling layer above it (an attic under pitched roof
+   slabs) still makes a storey when enough downward-facing points (roof undersides) lie
+   above it; its top is their ``sloped_top_quantile`` height (the ridge).
 
-Departure from the thesis: it only says "peaks of the z histogram"; steps 2–4 are what
+Departure from the thesis: it only says "peaks of the z histogram"; steps 2–5 are what
 makes it work on real rooms where furniture tops outnumber the floor.
 """
 from __future__ import annotations
@@ -150,6 +155,7 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
     scanner_z = None if fin is None or not fin.any() else sp[fin, 2]
     layers = []
     hw = params.layer_half_width
+    peak_z = [z0 + (b + 0.5) * params.bin_size for b in peaks]
     for b in peaks:
         z = z0 + (b + 0.5) * params.bin_size
         for _ in range(2):
@@ -168,6 +174,12 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
         rim = neighbours[occ].reshape(-1)
         dil[rim[rim >= 0]] = True
         inside = dil[cell_of] & nonhor
+        others = [q for q in peak_z if abs(q - z) > 2 * hw]  # a layer close by: its noisy normals
+        if others:  # are not walls of this one (a ceiling 0.2 m under the floor above)
+            zz = xyz[:, 2]
+            near = [q for q in others if abs(q - z) <= 2 * hw + params.side_window]
+            for q in near:
+                inside &= np.abs(zz - q) > 2 * hw
         dz = xyz[inside, 2] - z
         above = int(np.sum((dz > hw) & (dz <= hw + params.side_window)))
         below = int(np.sum((dz < -hw) & (dz >= -hw - params.side_window)))
@@ -187,6 +199,22 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
     layers.sort(key=lambda L: L.z)
     log.debug("layers: %s", layers)
     return layers
+
+
+def _sloped_top(cloud: PointCloud, floor: Layer, top: float, params: StoreyParams):
+    """Top of a storey without a flat ceiling layer (an attic under pitched roof slabs): the
+    ``sloped_top_quantile`` of the heights of the points above the floor's footprint and below
+    ``top`` that face down or sideways-down (roof undersides); None when they are too few or
+    lower than ``min_storey_height`` above the floor."""
+    xyz = cloud.xyz
+    nz = cloud.normals[:, 2].astype(np.float64)
+    sel = (xyz[:, 2] > floor.z + params.min_storey_height * 0.5) & (xyz[:, 2] < top) & (nz < -0.2)
+    if int(sel.sum()) < params.min_layer_points:
+        return None
+    z = float(np.quantile(xyz[sel, 2], params.sloped_top_quantile))
+    if z - floor.z < params.min_storey_height:
+        return None
+    return z
 
 
 def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
@@ -234,12 +262,17 @@ def detect_storeys(cloud: PointCloud, params: StoreyParams = StoreyParams(), *,
         floor = max(g, key=lambda L: L.area)
         top = groups[i + 1][0].z if i + 1 < len(groups) else np.inf
         cand = [c for c in ceilings if floor.z + params.min_storey_height <= c.z < top]
-        if not cand:
-            log.warning("%s: floor at z = %.3f m has no ceiling layer above it; skipped", name, floor.z)
-            continue
-        ceil = max(cand, key=lambda L: L.z)
+        if cand:
+            ceil_z = max(cand, key=lambda L: L.z).z
+        else:
+            ceil_z = _sloped_top(cloud, floor, top, params)
+            if ceil_z is None:
+                log.warning("%s: floor at z = %.3f m has no ceiling layer above it; skipped", name, floor.z)
+                continue
+            log.info("%s: floor at z = %.3f m has no flat ceiling; its top follows the points above it "
+                     "(sloped roof) up to z = %.3f m", name, floor.z, ceil_z)
         k = len(storeys)
-        storeys.append(Storey(index=k, floor_z=float(floor.z), ceiling_z=float(ceil.z),
+        storeys.append(Storey(index=k, floor_z=float(floor.z), ceiling_z=float(ceil_z),
                               name=f"Storey {k}", elevation=float(floor.z)))
     if not storeys:
         desc = ", ".join(f"{L.kind} z={L.z:.2f} area={L.area:.1f}m² contrast={L.contrast:+.2f}"

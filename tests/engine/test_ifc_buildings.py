@@ -1,0 +1,161 @@
+"""Real architects' plans reconstructed (issue 19): FZK-Haus (a ground floor with an open plan
+under a double-height void, an attic under pitched roof slabs) and the Duplex (two flats with a
+0.55 m party wall, two levels in one scan), scanned by :func:`engine.synthetic.ifc_scene`.
+
+Scored with :func:`engine.evaluation.rooms.room_scores` (one-to-one footprint IoU, open plans
+merged) on seed 2 — the rules were developed on seed 0 and benchmarked on seed 1. The issue's
+targets are asserted where they are met, with the margin to the measured figure stated; the
+others are xfail (strict=False) with the figure measured today."""
+import numpy as np
+import pytest
+from shapely.geometry import LineString
+
+from engine.errors import ReconstructionError
+from engine.evaluation import evaluate
+from engine.evaluation.elements import _plan
+from engine.evaluation.rooms import RoomScoreParams, merge_open_plans, room_scores, scanned_spaces
+from engine.reconstruct import reconstruct
+from engine.synthetic import ifc_scene
+
+SEED = 2
+POINTS = 300_000
+_cache = {}
+
+
+def _run(name, noise="tls"):
+    key = (name, noise)
+    if key not in _cache:
+        sc = ifc_scene(name, seed=SEED, noise=noise, target_points=POINTS)
+        m = reconstruct(sc.cloud, "auto", rng=0)
+        seen = scanned_spaces(sc.truth, sc.cloud.xyz)
+        _cache[key] = (sc, m, room_scores(m, sc.truth, seen=seen))
+    return _cache[key]
+
+
+def _walls(sc, m):
+    ev = evaluate(m, sc.truth)
+    i = int(np.argmin(np.abs(ev.buffers - 0.10)))
+    return float(ev.curve("completeness", "wall")[i]), float(ev.curve("correctness", "wall")[i])
+
+
+# ----------------------------------------------------------------------------- the scorer
+def test_open_plans_merge_only_where_no_wall_separates_them():
+    from shapely.geometry import box
+
+    a, b, c = box(0, 0, 3, 3), box(3, 0, 6, 3), box(6.2, 0, 9, 3)  # a|b touch, b..c 0.2 m gap
+    wall_bc = box(6.0, 0, 6.2, 3)
+    assert merge_open_plans([a, b, c], [wall_bc]) == [[0, 1], [2]]
+    assert merge_open_plans([a, b, c], [wall_bc, box(2.95, 0, 3.05, 3)]) == [[0], [1], [2]]
+    with pytest.raises(Exception):
+        RoomScoreParams(min_iou=0)
+
+
+# ----------------------------------------------------------------------------- FZK-Haus
+@pytest.mark.slow
+@pytest.mark.parametrize("noise", ["tls", "mobile"])
+def test_fzk_haus_rooms(noise):
+    sc, m, r = _run("fzk_haus", noise)
+    assert r["storeys"]["model"] == 2  # the attic under the pitched roof is a storey
+    # targets: recall >= 0.95 (seed 0: 1.0), mean IoU >= 0.9 (seed 0: 0.99)
+    assert r["recall"] >= 0.95, r
+    assert r["mean_iou"] >= 0.9, r
+    assert r["small_spurious"] == 0 and r["outside_m2"] <= 0.5, r
+
+
+@pytest.mark.slow
+def test_fzk_haus_attic_and_void():
+    sc, m, r = _run("fzk_haus")
+    attic, ground = r["per_storey"][1], r["per_storey"][0]
+    assert attic["matched"] == 1 and attic["ious"][0] >= 0.95  # the "Galerie" under two roof slabs (0.99)
+    # the open plan (living room, hall with the stair, kitchen) under the double-height void
+    k = next(i for i, g in enumerate(ground["true_groups"]) if "Flur" in g)
+    assert ground["ious"][k] >= 0.9  # 0.98 on seed 0 (0.69 before the void rule)
+    low = [s for s in m.spaces if s.attributes.get("confidence") is not None]
+    assert low and all(0.5 <= s.attributes["confidence"] < 1.0 for s in low)  # ceiling partly unseen
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(reason="side faces of the attic: the space is a box up to the ridge, not following the "
+                          "roof planes; seed 0 measures completeness 0.91, correctness 0.75", strict=False)
+def test_fzk_haus_side_faces():
+    sc, m, _ = _run("fzk_haus")
+    c, k = _walls(sc, m)
+    assert c >= 0.95 and k >= 0.95, (c, k)
+
+
+# ----------------------------------------------------------------------------- Duplex
+@pytest.mark.slow
+@pytest.mark.parametrize("noise", ["tls", "mobile"])
+def test_duplex_rooms(noise):
+    sc, m, r = _run("duplex", noise)
+    assert r["storeys"]["model"] == 2  # both levels of the one scan
+    assert r["recall"] >= 0.95, r  # 14/14 on seeds 0, 1, 2
+    assert r["small_spurious"] <= 1, r  # slivers between doubled wall lines: 6-11 before, 0-1 now
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(reason="one small or low space the truth lacks remains (seed 1 TLS and mobile, seed 2 TLS), "
+                          "and seed 2 mobile has 16 spaces for 14 rooms (precision 0.875)", strict=False)
+@pytest.mark.parametrize("noise", ["tls", "mobile"])
+def test_duplex_no_extra_spaces(noise):
+    sc, m, r = _run("duplex", noise)
+    assert r["small_spurious"] == 0 and r["precision"] >= 0.95, r
+
+
+@pytest.mark.slow
+def test_duplex_iou_and_envelope():
+    sc, m, r = _run("duplex")
+    # targets: mean IoU >= 0.9 (seeds 0, 1: 0.95, 0.94), nothing outside the envelope (0 m²)
+    assert r["mean_iou"] >= 0.9 and r["outside_m2"] <= 0.5, r
+    assert min(min(p["ious"]) for p in r["per_storey"] if p["ious"]) >= 0.8, r  # seed 0: 0.88
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(reason="seed 2 TLS: on level 2 a room spans the party wall over y -6.85..-0.42 (7.7 m² of "
+                          "room on its 9.3 m²); seed 0 models it as two walls with a gap and a 0.7 m wall",
+                   strict=False)
+def test_duplex_party_wall_is_modelled():
+    """The 0.55 m party wall between the flats: model walls cover both of its faces over
+    most of its length, and no room lies on it."""
+    sc, m, _ = _run("duplex")
+    party = [w for w in sc.truth.walls if "Party" in (w.name or "")]
+    assert party
+    walls = [_plan(w, m) for w in m.walls]
+    rooms = [_plan(s, m) for s in m.spaces]
+    for w in party:
+        p = _plan(w, sc.truth)
+        x0, y0, x1, y1 = p.bounds
+        along_y = (y1 - y0) > (x1 - x0)
+        faces = ([LineString([(x0 + 0.05, y0), (x0 + 0.05, y1)]), LineString([(x1 - 0.05, y0), (x1 - 0.05, y1)])]
+                 if along_y else
+                 [LineString([(x0, y0 + 0.05), (x1, y0 + 0.05)]), LineString([(x0, y1 - 0.05), (x1, y1 - 0.05)])])
+        for f in faces:
+            covered = sum(f.intersection(q.buffer(0.1)).length for q in walls)
+            assert covered >= 0.8 * f.length, (w.name, covered, f.length)
+        on_it = sum(p.intersection(r).area for r in rooms)
+        assert on_it <= 0.1 * p.area, (w.name, on_it, p.area)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(reason="side faces: seed 0 measures completeness 0.57, correctness 0.85", strict=False)
+def test_duplex_side_faces():
+    sc, m, _ = _run("duplex")
+    c, k = _walls(sc, m)
+    assert c >= 0.95 and k >= 0.95, (c, k)
+
+
+# ----------------------------------------------------------------------------- evidence rule
+def test_an_all_rejected_model_is_an_error_naming_the_stage(monkeypatch):
+    """When the evidence rule rejects every space, reconstruct says so (no silent empty model)."""
+    import engine.grammar.manhattan as manhattan
+    from engine.synthetic import preset
+
+    real = manhattan.reject_implausible_spaces
+
+    def reject_all(model, min_width, min_area, min_height, tau=None):
+        return real(model, 1e6, min_area, min_height, tau)  # everything is "too narrow"
+
+    monkeypatch.setattr(manhattan, "reject_implausible_spaces", reject_all)
+    sc = preset("office_mw", seed=1, noise="tls", target_points=60_000)
+    with pytest.raises(ReconstructionError, match="evidence rule rejected all"):
+        reconstruct(sc.cloud, "manhattan", rng=0)
