@@ -90,7 +90,8 @@ def expand_inputs(items: Sequence[str | os.PathLike]) -> list[str]:
     scan inside it (any supported extension, recursively, sorted); ``@FILE``, a ``.lst`` /
     ``.list`` file, or a ``.txt`` whose first line names an existing file is a list of paths,
     one per line (``#`` comments; relative paths from the list's folder). A path that does
-    not exist is kept, so its conversion reports it like any other bad file.
+    not exist, or a folder without any scan, is kept, so its conversion reports it like any
+    other bad file.
 
     Raises
     ------
@@ -108,7 +109,7 @@ def expand_inputs(items: Sequence[str | os.PathLike]) -> list[str]:
             for root, dirs, files in os.walk(p):
                 dirs.sort()
                 found.extend(os.path.join(root, f) for f in sorted(files) if f.lower().endswith(exts))
-            out.extend(found)
+            out.extend(found or [p])  # no scan inside: the folder itself fails, named, and the batch goes on
         elif os.path.isfile(p) and _is_path_list(p):
             out.extend(expand_inputs(_read_list(p)))
         else:
