@@ -35,7 +35,7 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import EmptyCloudError
 from ..evaluation.coverage import PatchSupport, alpha_area, patch_support
 from ..evaluation.patches import patches_from_model
-from ..geometry.normals import knn_normals
+from ..geometry.normals import knn_pca
 from ..geometry.transforms import apply_rotation, apply_transform, frame_transform
 from ..model import BuildingModel
 from ..pointcloud import PointCloud
@@ -337,7 +337,14 @@ def _classify(patches, xyz, cloud, t, params: ChangeParams, r: float, should_sto
     # neighbours come from the points around the new ones only (a smaller k-d tree)
     region = np.flatnonzero(_near_voxels(xyz, xyz[new0], 2 * params.normal_radius))
     pos = np.searchsorted(region, amb)
-    normals = knn_normals(xyz[region], max(params.normal_neighbours, 3), pos)
+    _, lam, vec = knn_pca(xyz[region], max(params.normal_neighbours, 3), pos)
+    # only a normal that is sure to well within the angle can overrule the distance test: a
+    # neighbourhood no wider than the noise (points bunched under a mobile scanner's path), or
+    # one across an edge, gives a normal in any direction
+    sure = lam[:, 0] <= np.tan(params.max_normal_angle / 2) ** 2 * lam[:, 1]
+    amb, normals = amb[sure], vec[sure, :, 0]
+    if len(amb) == 0:
+        return sup
     sub = patch_support(patches, xyz[amb], r, normals=normals, max_normal_angle=params.max_normal_angle,
                         search_distance=search, should_stop=should_stop)
     on = sup.on_model.copy()
@@ -352,12 +359,58 @@ def _classify(patches, xyz, cloud, t, params: ChangeParams, r: float, should_sto
     return PatchSupport(on, dist, patch, members)
 
 
+
+def _nearest_surface(patches, xyz: np.ndarray, point_type: np.ndarray, cluster: np.ndarray, walls: list,
+                     openings: list, r: float) -> None:
+    """Give the points near a fitted new wall to the surface they are nearest: the wall's faces
+    or the model's (in place).
+
+    Where a new wall stands on an old floor or meets an old ceiling or wall, a point within r
+    of both is ambiguous, and the normal test cannot settle it there (estimated normals blur
+    at the corner). Within a new wall's extent (not in its new doors and windows), a point
+    nearer to a face of the wall than to any model surface is new; one nearer to a model
+    surface (within r) exists."""
+    cand_mask = np.zeros(len(xyz), dtype=bool)
+    d_new = np.full(len(xyz), np.inf)
+    owner = np.full(len(xyz), -1, dtype=np.int32)
+    for w in walls:
+        a, b = (np.asarray(x, dtype=np.float64) for x in w["axis_line"])
+        length = float(np.linalg.norm(b - a))
+        if length <= 0:
+            continue
+        d = (b - a) / length
+        n = np.array([-d[1], d[0]])
+        rel = xyz[:, :2] - a
+        u, v = rel @ d, rel @ n
+        inside = ((u >= 0.0) & (u <= length) & (np.abs(v) <= w["thickness"] / 2 + r)
+                  & (xyz[:, 2] >= w["z0"] - r) & (xyz[:, 2] <= w["z1"] + r))
+        dist = np.abs(np.abs(v) - w["thickness"] / 2)
+        better = inside & (dist < d_new)
+        d_new[better] = dist[better]
+        owner[better] = int(w["cluster"])
+        cand_mask |= inside
+    cand_mask &= ~_in_boxes(openings, xyz, r)  # a doorway's floor and reveals stay as classified
+    cand = np.flatnonzero(cand_mask & (d_new <= r) & ((point_type == NEW) | (point_type == EXISTING)))
+    if len(cand) == 0:
+        return
+    d_old = patch_support(patches, xyz[cand], r).distance  # geometric: no normal test here
+    to_new = d_new[cand] < d_old
+    to_old = ~to_new & (d_old <= r)
+    point_type[cand[to_new]] = NEW
+    cluster[cand[to_new]] = owner[cand[to_new]]
+    point_type[cand[to_old]] = EXISTING
+    cluster[cand[to_old]] = -1
+
 def _in_openings(model: BuildingModel, xyz: np.ndarray, r: float) -> np.ndarray:
     """(n,) bool — points inside (within r of) the box of a door or window of the model."""
+    return _in_boxes([s for s in model.shapes if s.active and s.type.value in ("door", "window")], xyz, r)
+
+
+def _in_boxes(shapes, xyz: np.ndarray, r: float) -> np.ndarray:
+    """(n,) bool — points inside (within r of) the oriented box of one of ``shapes``."""
     from ..evaluation.coverage import PointBuckets
     from ..geometry.boxes import min_area_box
     out = np.zeros(len(xyz), dtype=bool)
-    shapes = [s for s in model.shapes if s.active and s.type.value in ("door", "window")]
     if not shapes or len(xyz) == 0:
         return out
     buckets = PointBuckets(xyz, 1.0)
@@ -498,18 +551,23 @@ def detect_changes(model: BuildingModel, cloud, params: Optional[ChangeParams] =
         scanners = None
         if cloud.scanner_positions is not None and cloud.scan_index is not None:
             scanners = apply_transform(t, np.asarray(cloud.scanner_positions, dtype=np.float64).reshape(-1, 3))
-        if params.element_status:
-            p(0.9, "status per element")
-            status = element_status(model, xyz, point_type == EXISTING, r, scanners=scanners,
-                                    scan_index=cloud.scan_index, params=params.status)
         if params.fit_walls and any(e["kind"] == "wall" for e in elements):
-            p(0.95, "new walls")
+            p(0.9, "new walls")
             sigma = MAD_TO_SIGMA * reg.residual if np.isfinite(reg.residual) else params.min_distance_threshold
             walls = fit_new_walls(model, xyz, cluster, elements, sigma=sigma, params=params.walls,
                                   new=point_type == NEW)
             normals = apply_rotation(t, cloud.normals) if cloud.normals is not None else None
             openings = new_openings(model, walls, xyz, normals=normals, scan_index=cloud.scan_index,
                                     scanners=scanners)
+            if walls:
+                _nearest_surface(patches, xyz, point_type, cluster, walls, openings, r)
+                counts = np.bincount(cluster[cluster >= 0], minlength=len(elements))
+                for e in elements:
+                    e["points"] = int(counts[e["id"]])
+        if params.element_status:
+            p(0.95, "status per element")
+            status = element_status(model, xyz, point_type == EXISTING, r, scanners=scanners,
+                                    scan_index=cloud.scan_index, params=params.status)
     p(1.0, "done")
     if not claim:
         log.info("change detection: the scan is unregistered: no change claimed")

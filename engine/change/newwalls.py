@@ -52,6 +52,11 @@ class WallFitParams:
     extent_share: float = 0.3
     max_gap: float = 0.3
     """New points on a face's line extend it across gaps up to this, metres."""
+    column: float = 0.1
+    """Plan cell of the columns that may extend a face, metres."""
+    column_share: float = 0.5
+    """A face only grows over columns of new points spanning at least this share of the storey
+    height (a wall, not the desk or shelf in front of it)."""
     snap: float = 0.4
     """Wall ends this close to another wall end on its face, metres."""
     default_thickness: float = 0.15
@@ -262,6 +267,23 @@ def _storey_of(model: BuildingModel, z: float):
     return 0, None, None
 
 
+def _tall_columns(model: BuildingModel, xyz: np.ndarray, p: WallFitParams) -> np.ndarray:
+    """(n,) bool — points in plan cells (``p.column``) whose points span at least
+    ``p.column_share`` of the height of the storey they stand in."""
+    key = np.floor(xyz[:, :2] / p.column).astype(np.int64)
+    _, inv = np.unique(key, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    zmin = np.full(inv.max() + 1, np.inf)
+    zmax = np.full(inv.max() + 1, -np.inf)
+    np.minimum.at(zmin, inv, xyz[:, 2])
+    np.maximum.at(zmax, inv, xyz[:, 2])
+    height = np.full(len(xyz), float(np.ptp(xyz[:, 2])) if len(xyz) else 0.0)
+    for st in model.storeys:
+        inside = (xyz[:, 2] >= st.floor_z - 0.5) & (xyz[:, 2] <= st.ceiling_z + 0.5)
+        height[inside] = st.ceiling_z - st.floor_z
+    return (zmax - zmin)[inv] >= p.column_share * height
+
+
 def _grow(line: dict, all_xy: np.ndarray, tol: float, p: WallFitParams, walls=None) -> None:
     """Extend a line's extent over the new points of any cluster on it (a wall seen sparsely far
     from the scanners falls apart into several clusters), across gaps up to ``max_gap``, never
@@ -320,7 +342,10 @@ def fit_new_walls(model: BuildingModel, xyz: np.ndarray, cluster: np.ndarray, el
              if not w.attributes.get("external") and float(w.attributes.get("thickness", 0) or 0) > 0]
     thickness = float(np.median(thick)) if thick else p.default_thickness
     walls = []
-    all_xy = thin_grid(xyz[new][:, :2], p.grid) if new is not None and np.any(new) else np.zeros((0, 2))
+    all_xy = np.zeros((0, 2))
+    if new is not None and np.any(new):
+        pts_new = xyz[new]
+        all_xy = thin_grid(pts_new[_tall_columns(model, pts_new, p)][:, :2], p.grid)
     import shapely
     from shapely.geometry import Polygon
     fps = [w.footprint() for w in model.walls if w.active]
