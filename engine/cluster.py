@@ -22,6 +22,7 @@ import contextlib
 import dataclasses
 import hashlib
 import json
+import logging
 import os
 import shutil
 import tempfile
@@ -35,6 +36,8 @@ from .fileutil import atomic_write_bytes, atomic_write_text
 
 __all__ = ["Job", "expand_inputs", "convert_job", "connect", "run_jobs", "params_hash", "file_sha256",
            "manifest_path", "manifest_ok", "write_manifest", "LIST_SUFFIXES", "MANIFEST_SUFFIX"]
+
+log = logging.getLogger(__name__)
 
 LIST_SUFFIXES = (".lst", ".list")
 """A file with one of these extensions is a list of scan paths (as is ``@FILE``)."""
@@ -347,8 +350,6 @@ def connect(scheduler: Optional[str] = None, workers: Optional[int] = None, memo
     over it), closed at the end. The local scheduler declares a task failed the first time
     its worker dies (``allowed-failures`` 0): :func:`run_jobs` does the one retry itself."""
     distributed = _distributed()
-    import logging
-
     import dask
 
     if logging.getLogger().getEffectiveLevel() > logging.INFO:  # dask's INFO lines only with --verbose
@@ -361,7 +362,10 @@ def connect(scheduler: Optional[str] = None, workers: Optional[int] = None, memo
         finally:
             client.close()
         return
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+    # one task per worker at a time (worker-saturation 1): a task queued behind a task that
+    # kills its worker would die with it, "failed" without having run
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0,
+                          "distributed.scheduler.worker-saturation": 1.0}):
         cluster = distributed.LocalCluster(n_workers=int(workers or 1), threads_per_worker=1, processes=True,
                                            memory_limit=memory_limit if memory_limit is not None else "auto",
                                            dashboard_address=":0")
@@ -389,9 +393,44 @@ def _died_result(job: Job, attempts: int, exc: BaseException) -> dict:
                      "(killed, crashed, or over its memory limit)"}
 
 
+def _task_states(keys, dask_scheduler=None) -> dict:
+    """On the scheduler: each key's task state (None: the scheduler does not know it), and
+    ``"_workers"``: the number of workers with threads."""
+    tasks = dask_scheduler.tasks
+    out = {k: (tasks[k].state if k in tasks else None) for k in keys}
+    out["_workers"] = sum(1 for ws in dask_scheduler.workers.values() if ws.nthreads)
+    return out
+
+
+STALL_STATES = {None: "lost by the scheduler", "released": "lost by the scheduler",
+                "forgotten": "lost by the scheduler", "no-worker": "not placed on any worker",
+                "memory": "finished but never reported", "erred": "failed but never reported"}
+"""Scheduler states of a task the client still waits for that mean it is stuck (the
+watchdog of :func:`run_jobs`), with how to say so."""
+
+
+def stalled_tasks(states: dict, since: dict, now: float, grace: float) -> list:
+    """The keys stuck for at least ``grace`` seconds: in a state of :data:`STALL_STATES`
+    (``no-worker`` only while the cluster has workers) at each look since first seen so.
+    ``since`` (key → first time seen stuck) is updated in place."""
+    out = []
+    workers = states.get("_workers", 1)
+    for k, st in states.items():
+        if k == "_workers":
+            continue
+        if st in STALL_STATES and (st != "no-worker" or workers):
+            since.setdefault(k, now)
+            if now - since[k] >= grace:
+                out.append(k)
+        else:
+            since.pop(k, None)
+    return out
+
+
 def run_jobs(client, jobs: Sequence[Job], *, on_result: Optional[Callable[[int, dict], None]] = None,
              task: Callable = convert_job, ship: bool = False, retries: int = 1,
-             on_tick: Optional[Callable[[int, int, int], None]] = None, max_in_flight: Optional[int] = None) -> list:
+             on_tick: Optional[Callable[[int, int, int], None]] = None, max_in_flight: Optional[int] = None,
+             stall_timeout: float = 60.0, poll: float = 0.1, check_every: float = 5.0) -> list:
     """Run ``task(job)`` (``task(job, bytes)`` with ``ship``) for every job on ``client``'s
     cluster; return the results in the order of ``jobs``.
 
@@ -401,11 +440,19 @@ def run_jobs(client, jobs: Sequence[Job], *, on_result: Optional[Callable[[int, 
     tasks finish (running: the unfinished tasks, at most one per worker thread).
     ``max_in_flight`` bounds the submitted, unfinished tasks (with ``ship`` the default is
     twice the threads, so the client holds few scans in memory).
+
+    A watchdog asks the scheduler every ``check_every`` seconds for the state of the
+    unfinished tasks: one stuck for ``stall_timeout`` seconds (unknown to the scheduler, not
+    placed on any worker while there are workers, or finished without the client being told;
+    see :data:`STALL_STATES`) is cancelled and counts as a died worker (submitted again, up
+    to ``retries``); one running longer than its job's ``timeout`` plus ``stall_timeout``
+    (the worker's own deadline did not stop it) fails as timed out. So no batch waits forever.
     """
     distributed = _distributed()
     results: list = [None] * len(jobs)
     attempts = [0] * len(jobs)
     pending: dict = {}
+    running: dict = {}  # key -> client time the watchdog first saw it on a worker
     queue = list(range(len(jobs)))[::-1]
     threads = max(1, sum(client.nthreads().values()))
     if ship and max_in_flight is None:
@@ -455,32 +502,86 @@ def run_jobs(client, jobs: Sequence[Job], *, on_result: Optional[Callable[[int, 
         if on_result is not None:
             on_result(i, r)
 
+    def failure(i, exc) -> Optional[dict]:  # None: submitted again
+        if isinstance(exc, distributed.KilledWorker) and attempts[i] <= retries:
+            submit(i, avoid=getattr(getattr(exc, "last_worker", None), "address", None))
+            return None
+        if isinstance(exc, distributed.KilledWorker):
+            return _died_result(jobs[i], attempts[i], exc)
+        # the task itself raised (a custom task, or a bug), or was cancelled
+        return {"input": jobs[i].path, "name": jobs[i].name, "status": "failed",
+                "kind": error_kind(exc) if isinstance(exc, BaseException) else "internal",
+                "error": error_line(exc, jobs[i].path) if isinstance(exc, BaseException) else str(exc)}
+
+    def drop(fut):
+        pending.pop(fut, None)
+        running.pop(fut.key, None)
+        with contextlib.suppress(Exception):
+            fut.cancel()
+        fut.release()
+
+    def watchdog(now):
+        by_key = {fut.key: fut for fut in pending}
+        try:
+            states = client.run_on_scheduler(_task_states, keys=list(by_key))
+        except Exception as e:  # the scheduler itself is gone: the futures will err
+            log.warning("batch: cannot ask the scheduler for the task states: %s", e)
+            return
+        for k in stalled_tasks(states, stuck, now, stall_timeout):
+            fut = by_key[k]
+            i = pending[fut]
+            how = STALL_STATES[states[k]]
+            again = attempts[i] <= retries
+            log.warning("batch: %s: the task was %s for %.0f s%s", printable(jobs[i].path), how,
+                        now - stuck.pop(k), "; submitting it again" if again else "")
+            drop(fut)
+            if again:
+                submit(i)
+            else:
+                finish(i, {"input": jobs[i].path, "name": jobs[i].name, "status": "failed", "kind": "internal",
+                           "error": f"{printable(jobs[i].path)}: the task was {how} ({attempts[i]} attempts)"})
+        for fut, i in list(pending.items()):
+            if states.get(fut.key) != "processing":
+                continue
+            t = jobs[i].timeout
+            since = running.setdefault(fut.key, now)  # first seen on a worker (to a look)
+            if t and now - since > float(t) + stall_timeout:
+                drop(fut)
+                finish(i, {"input": jobs[i].path, "name": jobs[i].name, "status": "failed", "kind": "cancelled",
+                           "error": f"{printable(jobs[i].path)}: timed out after {float(t):g} s (--timeout; "
+                                    "the worker did not stop it)"})
+
     ac = distributed.as_completed([], with_results=True, raise_errors=False)
+    stuck: dict = {}
     fill()
     if on_tick is not None:
         on_tick(done, failed, min(len(pending), threads))
-    for batch in ac.batches():  # event-driven, results fetched in the background: no round trip per task
-        for fut, value in batch:
+    last = time.monotonic()
+    while pending or queue:
+        batch = ac.next_batch(block=False) if ac.has_ready() else []
+        for fut, value in batch:  # results are fetched in the background: no round trip per task
+            if fut not in pending:  # dropped by the watchdog
+                continue
             i = pending.pop(fut)
+            running.pop(fut.key, None)
             status = fut.status
             fut.release()
             if status == "finished":
                 finish(i, value)
                 continue
-            exc = value[1] if isinstance(value, tuple) and len(value) == 3 else value
-            if isinstance(exc, distributed.KilledWorker) and attempts[i] <= retries:
-                submit(i, avoid=getattr(getattr(exc, "last_worker", None), "address", None))
-                continue
-            if isinstance(exc, distributed.KilledWorker):
-                r = _died_result(jobs[i], attempts[i], exc)
-            else:  # the task itself raised (a custom task, or a bug), or was cancelled
-                r = {"input": jobs[i].path, "name": jobs[i].name, "status": "failed",
-                     "kind": error_kind(exc) if isinstance(exc, BaseException) else "internal",
-                     "error": error_line(exc, jobs[i].path) if isinstance(exc, BaseException) else str(exc)}
-            finish(i, r)
-        fill()
-        if on_tick is not None:
-            on_tick(done, failed, min(len(pending), threads))
+            r = failure(i, value[1] if isinstance(value, tuple) and len(value) == 3 else value)
+            if r is not None:
+                finish(i, r)
+        now = time.monotonic()
+        if not batch and now - last >= check_every and pending:
+            watchdog(now)
+            last = now
+        if batch or not pending:
+            fill()
+            if on_tick is not None:
+                on_tick(done, failed, min(len(pending), threads))
+        elif not batch:
+            time.sleep(poll)
     return results
 
 

@@ -159,9 +159,6 @@ def flaky_convert(job, data=None):
 
 
 @pytest.mark.slow
-@pytest.mark.skip(reason="hangs intermittently (a fresh-clone CI run waited > 10 min here; it passed in the run "
-                         "before): a task whose worker is killed is sometimes never rescheduled or reported; "
-                         "issue 18 stays open until the retry path has a deadline")
 def test_dead_worker_retried_once_ship_and_timeout(scans, tmp_path, monkeypatch):
     import cloudpickle
 
@@ -177,7 +174,9 @@ def test_dead_worker_retried_once_ship_and_timeout(scans, tmp_path, monkeypatch)
     seen = []
     with cluster.connect(workers=2) as client:
         first = set(client.scheduler_info()["workers"])
-        res = cluster.run_jobs(client, jobs, task=flaky_convert, on_result=lambda i, r: seen.append(i))
+        # a watchdog asks the scheduler every 2 s; a task stuck for 20 s is submitted again
+        res = cluster.run_jobs(client, jobs, task=flaky_convert, on_result=lambda i, r: seen.append(i),
+                               stall_timeout=20, check_every=2)
         assert sorted(seen) == [0, 1]
         assert res[0]["status"] == "done" and res[0]["attempts"] == 2
         assert res[0]["worker"] not in first or len(first) == 2  # a restarted or the other worker
@@ -198,3 +197,60 @@ def test_dead_worker_retried_once_ship_and_timeout(scans, tmp_path, monkeypatch)
     for d in (out, ship_dir):
         assert (d / "other.ifc").read_bytes() == (ref / "other.ifc").read_bytes()
         assert _model_dict(d / "other.json") == _model_dict(ref / "other.json")
+
+
+def test_stalled_tasks_need_the_grace_at_each_look():
+    since = {}
+    states = {"a": None, "b": "processing", "c": "no-worker", "d": "memory", "_workers": 2}
+    assert cluster.stalled_tasks(states, since, 0.0, 10.0) == []
+    assert sorted(since) == ["a", "c", "d"]
+    # "a" comes back (a look where it is processing): its clock starts again
+    assert cluster.stalled_tasks({**states, "a": "processing"}, since, 5.0, 10.0) == []
+    assert sorted(cluster.stalled_tasks(states, since, 10.0, 10.0)) == ["c", "d"]
+    assert sorted(cluster.stalled_tasks(states, since, 15.0, 10.0)) == ["c", "d"]  # "a": stuck since 10
+    assert sorted(cluster.stalled_tasks(states, since, 20.0, 10.0)) == ["a", "c", "d"]
+    # no worker at all: waiting for one is not a stall
+    assert cluster.stalled_tasks({"c": "no-worker", "_workers": 0}, {}, 100.0, 0.0) == []
+
+
+def sleepy_task(job, data=None):
+    """A task that ignores its deadline: sleeps ``options["sleep"]`` seconds."""
+    import time
+    time.sleep(float(job.options.get("sleep", 0)))
+    return {"input": job.path, "name": job.name, "status": "done"}
+
+
+def _forget(keys, client_id, dask_scheduler=None):
+    dask_scheduler.client_releases_keys(keys=keys, client=client_id, stimulus_id="test-forget")
+    return [k in dask_scheduler.tasks for k in keys]
+
+
+@pytest.mark.slow
+def test_watchdog_resubmits_a_lost_task_and_fails_a_stuck_one(tmp_path):
+    import threading
+    import time
+
+    import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    with cluster.connect(workers=1) as client:
+        forgotten = []
+
+        def forget_soon():  # the scheduler forgets the task while the client still waits for it
+            time.sleep(1.0)
+            keys = [k for k in client.futures]
+            forgotten.extend(client.run_on_scheduler(_forget, keys, client.id))
+
+        th = threading.Thread(target=forget_soon)
+        th.start()
+        t0 = time.monotonic()
+        res = cluster.run_jobs(client, [cluster.Job("a.ply", "a", str(tmp_path), {"sleep": 3})], task=sleepy_task,
+                               stall_timeout=2, check_every=0.5)[0]
+        th.join()
+        assert forgotten == [False]  # the scheduler no longer knew the task
+        assert res["status"] == "done" and res["attempts"] == 2
+        assert time.monotonic() - t0 < 60  # without the watchdog: forever
+        # a task that does not stop at its deadline fails once it is timeout + stall_timeout on a worker
+        res = cluster.run_jobs(client, [cluster.Job("b.ply", "b", str(tmp_path), {"sleep": 60}, timeout=0.5)],
+                               task=sleepy_task, stall_timeout=1, check_every=0.5)[0]
+        assert res["status"] == "failed" and "timed out after 0.5 s" in res["error"] and res["attempts"] == 1
