@@ -394,10 +394,10 @@ def _nearest_surface(patches, xyz: np.ndarray, point_type: np.ndarray, cluster: 
     if len(cand) == 0:
         return
     d_old = patch_support(patches, xyz[cand], r).distance  # geometric: no normal test here
-    to_new = d_new[cand] < d_old
-    to_old = ~to_new & (d_old <= r)
+    to_new = (d_new[cand] < d_old) & (point_type[cand] == EXISTING)
+    to_old = (d_new[cand] >= d_old) & (d_old <= r) & (point_type[cand] == NEW)
     point_type[cand[to_new]] = NEW
-    cluster[cand[to_new]] = owner[cand[to_new]]
+    cluster[cand[to_new]] = owner[cand[to_new]]  # new points of other clusters keep theirs
     point_type[cand[to_old]] = EXISTING
     cluster[cand[to_old]] = -1
 

@@ -374,7 +374,13 @@ def fit_new_walls(model: BuildingModel, xyz: np.ndarray, cluster: np.ndarray, el
             w["faces"] = [a["count"]] + ([b["count"]] if b is not None else [])
             w["z"] = (float(pts[:, 2].min()), float(pts[:, 2].max()))
             walls.append(w)
-    walls.sort(key=lambda w: -np.linalg.norm(w["axis"][1] - w["axis"][0]))
+    # a wall inside a better-supported one (a door leaf or frame in its doorway, a second line
+    # pair on the same wall) is not a wall
+    kept = []
+    for w in sorted(walls, key=lambda w: -sum(w["faces"])):
+        if not any(_duplicate(w, o) for o in kept):
+            kept.append(w)
+    walls = sorted(kept, key=lambda w: -np.linalg.norm(w["axis"][1] - w["axis"][0]))
     old = [_frame_of(w) for w in model.walls if w.active]
     _snap_ends(walls, old, p.snap)
     out = []
