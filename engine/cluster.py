@@ -409,10 +409,12 @@ STALL_STATES = {None: "lost by the scheduler", "released": "lost by the schedule
 watchdog of :func:`run_jobs`), with how to say so."""
 
 
-def stalled_tasks(states: dict, since: dict, now: float, grace: float) -> list:
-    """The keys stuck for at least ``grace`` seconds: in a state of :data:`STALL_STATES`
-    (``no-worker`` only while the cluster has workers) at each look since first seen so.
-    ``since`` (key → first time seen stuck) is updated in place."""
+def stalled_tasks(states: dict, since: dict, now: float, grace: float,
+                  no_worker_grace: Optional[float] = None) -> list:
+    """The keys stuck for at least ``grace`` seconds (``no_worker_grace`` for ``no-worker``,
+    default the same): in a state of :data:`STALL_STATES` (``no-worker`` only while the
+    cluster has workers) at each look since first seen so. ``since`` (key → first time seen
+    stuck) is updated in place."""
     out = []
     workers = states.get("_workers", 1)
     for k, st in states.items():
@@ -420,7 +422,8 @@ def stalled_tasks(states: dict, since: dict, now: float, grace: float) -> list:
             continue
         if st in STALL_STATES and (st != "no-worker" or workers):
             since.setdefault(k, now)
-            if now - since[k] >= grace:
+            g = grace if st != "no-worker" or no_worker_grace is None else no_worker_grace
+            if now - since[k] >= g:
                 out.append(k)
         else:
             since.pop(k, None)
@@ -430,16 +433,16 @@ def stalled_tasks(states: dict, since: dict, now: float, grace: float) -> list:
 def run_jobs(client, jobs: Sequence[Job], *, on_result: Optional[Callable[[int, dict], None]] = None,
              task: Callable = convert_job, ship: bool = False, retries: int = 1,
              on_tick: Optional[Callable[[int, int, int], None]] = None, max_in_flight: Optional[int] = None,
-             stall_timeout: float = 60.0, poll: float = 0.1, check_every: float = 5.0) -> list:
+             stall_timeout: float = 60.0, poll: float = 0.2, check_every: float = 5.0) -> list:
     """Run ``task(job)`` (``task(job, bytes)`` with ``ship``) for every job on ``client``'s
     cluster; return the results in the order of ``jobs``.
 
     ``on_result(index, result)`` is called on the client as each one finishes. A task whose
-    worker died (``KilledWorker``) is submitted again, up to ``retries`` times, preferring
-    another worker; then it is a failure. ``on_tick(done, failed, running)`` is called as
-    tasks finish (running: the unfinished tasks, at most one per worker thread).
-    ``max_in_flight`` bounds the submitted, unfinished tasks (with ``ship`` the default is
-    twice the threads, so the client holds few scans in memory).
+    worker died (``KilledWorker``) is queued again, up to ``retries`` times; then it is a
+    failure. ``on_tick(done, failed, running)`` is called as tasks finish (running: the
+    unfinished tasks, at most one per worker thread). ``max_in_flight`` bounds the submitted,
+    unfinished tasks; by default it is the workers' threads at each submission, so no task
+    waits on a worker behind another (it would die with it when that one kills the worker).
 
     A watchdog asks the scheduler every ``check_every`` seconds for the state of the
     unfinished tasks: one stuck for ``stall_timeout`` seconds (unknown to the scheduler, not
@@ -455,25 +458,20 @@ def run_jobs(client, jobs: Sequence[Job], *, on_result: Optional[Callable[[int, 
     running: dict = {}  # key -> client time the watchdog first saw it on a worker
     queue = list(range(len(jobs)))[::-1]
     threads = max(1, sum(client.nthreads().values()))
-    if ship and max_in_flight is None:
-        max_in_flight = 2 * threads
     done = failed = 0
 
     def key(i):
         return f"convert-{i}-{jobs[i].name}-{attempts[i]}"
 
-    def submit(i, avoid=None):  # a retry, preferring another worker than the one that died
-        attempts[i] += 1
-        args = (jobs[i],) + ((_read_bytes(jobs[i].path),) if ship else ())
-        others = [w for w in client.scheduler_info(n_workers=-1)["workers"] if w != avoid] if avoid else None
-        where = {"workers": others, "allow_other_workers": True} if others else {}
-        fut = client.submit(task, *args, key=key(i), pure=False, **where)
-        pending[fut] = i
-        ac.add(fut)
+    def submit(i):  # a retry: first in the queue
+        queue.append(i)
 
-    def fill():  # the queued jobs, up to max_in_flight, in one client.map call
+    def fill():  # the queued jobs, up to the limit, in one client.map call
+        # by default one task per live worker thread: a task queued on a worker behind one that
+        # kills it would die with it without having run (and a retry count against it)
+        limit = max_in_flight if max_in_flight is not None else sum(client.nthreads().values())
         batch, data = [], []
-        while queue and (max_in_flight is None or len(pending) + len(batch) < max_in_flight):
+        while queue and len(pending) + len(batch) < limit:
             i = queue.pop()
             if ship:
                 try:
@@ -504,7 +502,7 @@ def run_jobs(client, jobs: Sequence[Job], *, on_result: Optional[Callable[[int, 
 
     def failure(i, exc) -> Optional[dict]:  # None: submitted again
         if isinstance(exc, distributed.KilledWorker) and attempts[i] <= retries:
-            submit(i, avoid=getattr(getattr(exc, "last_worker", None), "address", None))
+            submit(i)
             return None
         if isinstance(exc, distributed.KilledWorker):
             return _died_result(jobs[i], attempts[i], exc)
@@ -527,7 +525,10 @@ def run_jobs(client, jobs: Sequence[Job], *, on_result: Optional[Callable[[int, 
         except Exception as e:  # the scheduler itself is gone: the futures will err
             log.warning("batch: cannot ask the scheduler for the task states: %s", e)
             return
-        for k in stalled_tasks(states, stuck, now, stall_timeout):
+        # a retry is submitted preferring the workers other than the one that died; when those
+        # are gone too (both restarted by their nannies), the scheduler leaves it unplaced
+        # ("no-worker") although it may go anywhere: two looks are enough there
+        for k in stalled_tasks(states, stuck, now, stall_timeout, min(stall_timeout, 2 * check_every)):
             fut = by_key[k]
             i = pending[fut]
             how = STALL_STATES[states[k]]
@@ -543,7 +544,7 @@ def run_jobs(client, jobs: Sequence[Job], *, on_result: Optional[Callable[[int, 
         for fut, i in list(pending.items()):
             if states.get(fut.key) != "processing":
                 continue
-            t = jobs[i].timeout
+            t = getattr(jobs[i], "timeout", None)
             since = running.setdefault(fut.key, now)  # first seen on a worker (to a look)
             if t and now - since > float(t) + stall_timeout:
                 drop(fut)
@@ -581,8 +582,19 @@ def run_jobs(client, jobs: Sequence[Job], *, on_result: Optional[Callable[[int, 
             if on_tick is not None:
                 on_tick(done, failed, min(len(pending), threads))
         elif not batch:
-            time.sleep(poll)
+            _wait_ready(ac, poll)
     return results
+
+
+def _wait_ready(ac, timeout: float) -> None:
+    """Wait until ``ac`` (an ``as_completed``) has a finished future, or ``timeout`` seconds."""
+    cond = getattr(ac, "thread_condition", None)
+    if cond is None:  # another distributed version: poll
+        time.sleep(timeout)
+        return
+    with cond:
+        if not ac.has_ready():
+            cond.wait(timeout=timeout)
 
 
 def _read_bytes(path: str) -> bytes:
