@@ -14,7 +14,9 @@ coverage of its faces by the existing scan points **and** from visibility:
 ends more than r beyond it went through where the face should be. Without them, points inside a
 wall's volume (between its two side faces, more than a margin from both) with a near-vertical
 normal — the floor or ceiling strip where the wall stood — prove it absent along its axis.
-Doors and windows take the status of their wall (they go with it), with their own coverage.
+Doors and windows take the status of their wall (they go with it), with their own coverage,
+unless the wall goes on across them: both faces of the opening covered by points in the planes
+of the wall's faces around it (``walled_up``, "not installed"; a closed leaf stands back).
 The faces' outlines leave out the openings of their doors and windows, so a doorway seen
 through is not evidence against its wall.
 """
@@ -300,19 +302,24 @@ def element_status(model: BuildingModel, xyz: np.ndarray, existing: np.ndarray, 
     all_buckets = PointBuckets(xyz, 1.0) if rays is None else None
     out = []
     by_id = {}
+    planes = {}  # face key -> (normal, rho)
     for s in shapes:
         rows = []
         for f, geom in faces.get(s.id, []):
             outline = np.vstack(f.outline3d())
             cand = ex_buckets.in_box(outline.min(axis=0) - r, outline.max(axis=0) + r)
             pts = xyz[ex[cand]]
-            pts = pts[np.abs(pts @ f.normal - f.rho) <= r]
+            dist = pts @ f.normal - f.rho
+            pts, dist = pts[np.abs(dist) <= r], dist[np.abs(dist) <= r]
             cov = _coverage(f, geom, pts, p)
             absent = _ray_evidence(f, geom, rays, r, p) if rays is not None else 0.0
             rings = [f.to3d(np.asarray(g.exterior.coords)[:-1]).tolist()
                      for g in getattr(geom, "geoms", [geom]) if isinstance(g, Polygon) and not g.is_empty]
+            inside = _inside(geom, f.to2d(pts)) if len(pts) else np.zeros(0, dtype=bool)
             rows.append({"key": f.key, "area_m2": float(geom.area), "coverage": cov, "absent": absent,
-                         "polygon": rings})
+                         "polygon": rings,
+                         "offset": float(np.median(dist[inside])) if inside.sum() >= 10 else None})
+            planes[f.key] = (f.normal, f.rho)
         cov = max((x["coverage"] for x in rows), default=0.0)
         if rays is not None:
             absent = max((x["absent"] for x in rows), default=0.0)
@@ -329,10 +336,37 @@ def element_status(model: BuildingModel, xyz: np.ndarray, existing: np.ndarray, 
                "center": ((b[0] + b[1]) / 2).tolist(), "bbox": [b[0].tolist(), b[1].tolist()], "faces": rows}
         out.append(rec)
         by_id[s.id] = rec
-    for rec in out:  # doors and windows go with their wall
+    for rec in out:  # doors and windows go with their wall, unless the wall is closed across them
         if rec["type"] in ("door", "window") and rec["parent"] in by_id:
-            rec["status"] = by_id[rec["parent"]]["status"]
+            wall = by_id[rec["parent"]]
+            rec["status"] = wall["status"]
+            rec["walled_up"] = wall["status"] in (INSTALLED, INCOMPLETE) and _walled_up(rec, wall, planes, r, p)
+            if rec["walled_up"]:
+                rec["status"] = NOT_INSTALLED
+    for rec in out:
+        for row in rec["faces"]:
+            row.pop("offset", None)
     return out
+
+
+def _walled_up(opening: dict, wall: dict, planes: dict, r: float, p: StatusParams) -> bool:
+    """Whether the wall goes on across a door or window: both faces of the opening covered
+    (≥ ``installed_coverage``) by points in the plane of the wall's face around it (median
+    offsets within max(1 cm, r/4)). A closed door leaf stands back from at least one face, an
+    opening seen from one side only proves nothing."""
+    faces = opening["faces"]
+    if len(faces) < 2:
+        return False
+    tol = max(0.01, r / 4)
+    for row in faces:
+        if row["coverage"] < p.installed_coverage or row["offset"] is None:
+            return False
+        n, rho = planes[row["key"]]
+        same = [w for w in wall["faces"] if w["offset"] is not None and float(planes[w["key"]][0] @ n) > 0.99
+                and abs(planes[w["key"]][1] - rho) < 0.02]
+        if not same or min(abs(w["offset"] - row["offset"]) for w in same) > tol:
+            return False
+    return True
 
 
 def surface_elements(model: BuildingModel, room_patches: list, *, gap: float = 0.05) -> dict:

@@ -412,4 +412,5 @@ def new_openings(model: BuildingModel, walls: list, xyz: np.ndarray, *, normals=
     except Exception as e:  # opening detection is best effort here: the walls stand without
         log.warning("new walls: opening detection failed: %s", e)
         return []
-    return [d.with_(id=f"new_{d.id}", attributes={**d.attributes, "new_in_scan": True}) for d in found]
+    return [d.with_(id=f"new_{d.id}", name=f"New {(d.name or d.type.value).lower()}",  # not the model's "Door 1"
+                    attributes={**d.attributes, "new_in_scan": True}) for d in found]

@@ -47,12 +47,19 @@ def bcf_topics(model, result: ChangeResult, new_gids: dict) -> list[dict]:
     """One BCF topic per change: each element not installed or incomplete, each new wall."""
     topics = []
     for e in result.element_status:
-        if e["status"] not in ("not installed", "incomplete") or e["type"] in ("door", "window"):
+        # a door or window goes with its wall's topic, unless the wall closes across it
+        if e["status"] not in ("not installed", "incomplete") or (e["type"] in ("door", "window")
+                                                                  and not e.get("walled_up")):
             continue
+        if e.get("walled_up"):
+            why = (f"the wall goes on across it: both faces covered by points in the wall's planes "
+                   f"(coverage {100 * min(f['coverage'] for f in e['faces']):.0f} % or more).")
+        else:
+            why = (f"coverage {100 * e['coverage']:.0f} %, proven absent on {100 * e['absent']:.0f} % "
+                   f"({e['evidence']}).")
         topics.append({"title": f"{e['ifc_class']} {e['name'] or e['id']}: {e['status']}",
                        "description": f"{e['ifc_class']} {e['name'] or e['id']} ({e['global_id']}) is {e['status']} "
-                                      f"in the scan: coverage {100 * e['coverage']:.0f} %, proven absent on "
-                                      f"{100 * e['absent']:.0f} % ({e['evidence']}).",
+                                      f"in the scan: {why}",
                        "status": e["status"], "guid": e["global_id"], "ifc_class": e["ifc_class"],
                        "center": tuple(e["center"]), "bbox": tuple(tuple(b) for b in e["bbox"])})
     for w in result.new_walls:

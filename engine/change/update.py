@@ -41,12 +41,14 @@ MIN_SPACE_AREA = 0.5
 
 
 def removed_ids(model: BuildingModel, result) -> list[str]:
-    """Ids of the walls found "not installed" and of their doors and windows."""
+    """Ids of the walls found "not installed" and of their doors and windows, and of the doors
+    and windows whose wall is closed across them ("walled up")."""
     gone = [e["id"] for e in result.element_status if e["status"] == NOT_INSTALLED and e["type"] == "wall"]
     out = list(gone)
     for s in model.shapes:
         if s.type in (ShapeType.DOOR, ShapeType.WINDOW) and s.parent in gone:
             out.append(s.id)
+    out += [e["id"] for e in result.element_status if e.get("walled_up") and e["id"] not in out]
     return out
 
 
