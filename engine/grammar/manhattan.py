@@ -67,6 +67,11 @@ log = logging.getLogger(__name__)
 
 
 # --------------------------------------------------------------------------- rule 1: place
+_FAR_POINTS = 200
+"""The largest gap between the outermost this many ceiling points along an axis is the
+step between its scan lines at its far end (how much farther beyond its last point than
+a wall's thickness a weak wall may close it)."""
+
 def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyFrame,
                      params: ManhattanParams, spacing: float, ceiling_cells=None, sorted_t=None) -> bool:
     """Is the vertical surface at ``position`` a wall, i.e. does it reach a ceiling?
@@ -107,6 +112,26 @@ def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyF
         if np.unique(np.floor(q[band, o] / spacing)).size * spacing >= params.min_wall_top_length:
             return True
     return False
+
+
+def _or_void(cells, xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, params: ManhattanParams):
+    """The top ceiling's cell test widened to the cells open upwards (a double-height void,
+    a stair hall): scan points above the storey's top (up to ``void_height``) and no
+    floor of a storey above (no horizontal points within ``void_floor_band`` over the top),
+    where a storey above exists (its floor covers at least ``min_space_area``).
+    A wall bounding a void rises through the ceiling level, not to a ceiling; under a
+    single scanner standing in the void it is the room's only wall evidence there."""
+    top, d = float(frame.ceiling), float(params.shape_buffer)
+    band = (xyz[:, 2] > top + 2 * d) & (xyz[:, 2] <= top + params.void_height)
+    if not band.any():
+        return cells
+    hor = np.abs(normals[:, 2]) >= np.cos(params.normal_angle)
+    upper = xyz[band & hor & (xyz[:, 2] <= top + params.void_floor_band), :2]
+    c = params.level_cell
+    if len(np.unique(np.floor(upper / c).astype(np.int64), axis=0)) * c * c < params.min_space_area:
+        return cells  # no storey above (a top storey, an attic under its roof): no void
+    above, floor = _cell_lookup(xyz[band, :2], c), _cell_lookup(upper, c)
+    return lambda k: cells(k) | (above(k) & ~floor(k))
 
 
 def _seen_extent(xy: np.ndarray, axis: int, cell: float) -> tuple[float, float]:
@@ -222,6 +247,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     hor = along[2]
     on_ceiling = [_ceiling_mask(p, hor, c, frame, params) for c in frame.ceilings]
     ceiling_cells = [_cell_lookup(p[m][:, :2], params.level_cell) for m in on_ceiling]
+    ceiling_cells[-1] = _or_void(ceiling_cells[-1], xyz, normals, frame, params)
     raw = []
     for a in (0, 1):
         o, sel = 1 - a, along[a]
@@ -261,10 +287,31 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                 weak = [pk.position for pk in histogram_peaks(p[sa, a], np.column_stack([p[sa, o], p[sa, 2]]),
                                                               params, spacing, params.min_bound_wall_area)
                         if _reaches_ceiling(cand, a, pk.position, frame, params, spacing, None, cand[:, a])]
-            if not peaks or lo_e < peaks[0] - params.max_wall_thickness:
-                peaks.insert(0, _closing_wall(lo_e, -1, weak, params.max_wall_thickness))
-            if hi_e > peaks[-1] + params.max_wall_thickness:
-                peaks.append(_closing_wall(hi_e, +1, weak, params.max_wall_thickness))
+            t_max = params.max_wall_thickness
+            lo_w = _closing_wall(lo_e, -1, weak, t_max)
+            hi_w = _closing_wall(hi_e, +1, weak, t_max)
+            if first and (lo_w == lo_e or hi_w == hi_e):
+                # far from a single scanner the ceiling's scan lines lie further apart
+                # than a cell, so its connected extent stops short: its points across the
+                # seen extent reach on, and a weak wall there closes it
+                # (within the wall thickness plus the step between its scan lines there:
+                # the largest gap among its outermost points, at most another thickness)
+                o0, o1 = _seen_extent(p[sel, :2], o, params.level_cell)
+                q = np.sort(p[sel][(p[sel, o] >= o0) & (p[sel, o] <= o1), a])
+                k = min(_FAR_POINTS, len(q))
+                if lo_w == lo_e and q[0] < lo_e - t_max:
+                    step = min(float(np.diff(q[:k]).max(initial=0.0)), t_max)
+                    w = _closing_wall(float(q[0]), -1, weak, t_max + step)
+                    lo_w = w if w != float(q[0]) else lo_e
+                if hi_w == hi_e and q[-1] > hi_e + t_max:
+                    step = min(float(np.diff(q[-k:]).max(initial=0.0)), t_max)
+                    w = _closing_wall(float(q[-1]), +1, weak, t_max + step)
+                    hi_w = w if w != float(q[-1]) else hi_e
+                lo_e, hi_e = min(lo_e, lo_w), max(hi_e, hi_w)
+            if not peaks or lo_e < peaks[0] - t_max:
+                peaks.insert(0, lo_w)
+            if hi_e > peaks[-1] + t_max:
+                peaks.append(hi_w)
         if len(peaks) < 2:
             raise ReconstructionError(f"storey {storey}: fewer than two wall surfaces facing "
                                       f"{'xy'[a]} (found {len(peaks)}); is the cloud aligned?")

@@ -7,9 +7,11 @@ Method
    *layers*; each layer's height is the mean z of its points within ``layer_half_width``
    (two passes), so it is not quantised to the bin.
 2. A layer's *area* is the area of the occupancy-grid cells (``grid_cell``) its points
-   fill; layers covering less than ``min_area_fraction`` of the building's occupied
-   footprint (all points) are dropped — a desk, a shelf or a bed is a big histogram peak
-   but a small area.
+   fill; layers covering less than ``min_area_fraction`` of the occupied footprint of the
+   storey they bound (all points within ``min_storey_height`` above a floor-like layer,
+   below a ceiling-like one) are dropped — a desk, a shelf or a bed is a big histogram peak
+   but a small area. The storey's own footprint, not the building's: a scan with one
+   position per storey sees a few rooms of each floor, in different places.
 3. Floor or ceiling: the non-horizontal points (walls, clutter) inside the layer's
    footprint are counted in a thin window just above it and just below it. Walls rise
    from a floor and hang from a ceiling, and nothing lies inside a slab, so
@@ -184,8 +186,15 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
         above = int(np.sum((dz > hw) & (dz <= hw + params.side_window)))
         below = int(np.sum((dz < -hw) & (dz >= -hw - params.side_window)))
         contrast = (above - below) / max(above + below, 1)
+        # the footprint of the storey the layer bounds: every point within a storey height
+        # on the side it faces (a floor: above, a ceiling: below); on a scan with one
+        # position per storey each storey sees only some rooms, far fewer than the building
+        zz = xyz[:, 2]
+        side = (zz > z) & (zz <= z + params.min_storey_height) if contrast >= 0 else \
+            (zz < z) & (zz >= z - params.min_storey_height)
+        own = min(footprint, np.unique(cell_of[side]).size * cell * cell) if side.any() else footprint
         kind = "other"
-        if area >= params.min_area_fraction * footprint:
+        if area >= params.min_area_fraction * own:
             if contrast >= params.min_side_contrast:
                 kind = "floor"
             elif contrast <= -params.min_side_contrast:

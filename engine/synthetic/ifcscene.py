@@ -37,7 +37,7 @@ import logging
 import math
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Collection, Mapping, Optional, Union
 
 import numpy as np
@@ -579,6 +579,32 @@ def _walk(spaces: list, per: dict, links: dict, params: ScanParams) -> np.ndarra
     return np.vstack(out) if out else np.zeros((0, 2))
 
 
+def _few_positions(geometry: IfcGeometry, rays: _Rays, truth: Optional[BuildingModel], sparams: ScanParams,
+                   params: IfcSceneParams) -> np.ndarray:
+    """``sparams.positions_per_storey`` positions per storey (the truth's, else spaces with
+    floors within 0.5 m): the most central free spot of each of its biggest spaces."""
+    def storey(sp):
+        if truth is not None and sp.guid in truth:
+            return ("s", truth[sp.guid].storey)
+        return ("z", round(sp.floor_z / 0.5))
+
+    groups: dict = {}
+    for sp in geometry.spaces:
+        groups.setdefault(storey(sp), []).append(sp)
+    one = replace(sparams, area_per_scan=math.inf, max_scan_spacing=math.inf)
+    out = []
+    for key in sorted(groups, key=lambda k: min(sp.floor_z for sp in groups[k])):
+        k = 0
+        for sp in sorted(groups[key], key=lambda sp: -sp.footprint.area):
+            if k >= sparams.positions_per_storey:
+                break
+            xyz = _space_positions(sp, rays, one, params)
+            if len(xyz):
+                out.append(xyz[:1])
+                k += 1
+    return np.vstack(out) if out else np.zeros((0, 3))
+
+
 def ifc_scanner_positions(geometry: IfcGeometry, mesh: SceneMesh, truth: Optional[BuildingModel] = None,
                           scan_params: ScanParams = ScanParams(),
                           params: IfcSceneParams = IfcSceneParams()) -> np.ndarray:
@@ -588,7 +614,8 @@ def ifc_scanner_positions(geometry: IfcGeometry, mesh: SceneMesh, truth: Optiona
     long side / max_scan_spacing, 1)`` positions spread over its footprint shrunk by
     ``wall_clearance``, ``scanner_height`` above its floor, where the floor is below, a
     ceiling at least ``ceiling_clearance`` above and no element within ``clutter_clearance``
-    (clearances relaxed to 1/2, 1/4 when nothing fits). A space without any such spot (open
+    (clearances relaxed to 1/2, 1/4 when nothing fits); with ``positions_per_storey``, only
+    that many per storey, at the most central spot of its biggest spaces. A space without any such spot (open
     air above, a stair well) gets none. Mobile: every ``path_step`` along a depth-first walk
     per storey through the spaces' terrestrial positions and the open doors of ``truth``
     (and its doorless connections) between them, kept where ``path_wall_clearance`` from
@@ -599,6 +626,8 @@ def ifc_scanner_positions(geometry: IfcGeometry, mesh: SceneMesh, truth: Optiona
     """
     rays = _Rays(mesh)
     h = scan_params.scanner_height
+    if scan_params.mode == "tls" and scan_params.positions_per_storey is not None:
+        return _few_positions(geometry, rays, truth, scan_params, params)
     per = {}
     for sp in geometry.spaces:
         xyz = _space_positions(sp, rays, scan_params, params)
@@ -690,8 +719,8 @@ def _resolve(name_or_path) -> tuple[str, str]:
 
 def ifc_scene(name_or_path: Union[str, os.PathLike], *, seed: int = 0, noise: Union[str, float] = "tls",
               target_points: int = 300_000, params: IfcSceneParams = IfcSceneParams(),
-              truth: Optional[BuildingModel] = None, geometry: Optional[IfcGeometry] = None, progress=None,
-              should_stop=None) -> IfcScene:
+              truth: Optional[BuildingModel] = None, geometry: Optional[IfcGeometry] = None,
+              positions_per_storey: Optional[int] = None, progress=None, should_stop=None) -> IfcScene:
     """Scan a real IFC building model like the synthetic presets.
 
     Parameters
@@ -706,6 +735,8 @@ def ifc_scene(name_or_path: Union[str, os.PathLike], *, seed: int = 0, noise: Un
     truth, geometry : :func:`ifc_truth` (with the same ``params``) and :func:`ifc_geometry`
         (with ``offset=truth.offset``) of this file, when already made (several scans of
         one building).
+    positions_per_storey : terrestrial only: at most this many scanner positions per storey,
+        in its biggest spaces (:attr:`ScanParams.positions_per_storey`; 1: single-position scans).
 
     Returns
     -------
@@ -722,6 +753,8 @@ def ifc_scene(name_or_path: Union[str, os.PathLike], *, seed: int = 0, noise: Un
     if target <= 0:
         raise InputError(f"target_points must be positive, not {target_points!r}")
     sparams = scan_params_for(noise, target)
+    if positions_per_storey is not None:
+        sparams = replace(sparams, positions_per_storey=int(positions_per_storey))
     timings = {}
     t0 = time.perf_counter()
     if truth is None:

@@ -441,8 +441,8 @@ def _changed_walls(model_a: BuildingModel, model_b: BuildingModel, share: float 
 
 def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
            target_points: Optional[int] = None, scale: float = 1.0, clutter: bool = True,
-           furnish_params: FurnishParams = FurnishParams(), surroundings: bool = True, progress=None,
-           should_stop=None) -> SyntheticScene:
+           furnish_params: FurnishParams = FurnishParams(), surroundings: bool = True,
+           positions_per_storey: Optional[int] = None, progress=None, should_stop=None) -> SyntheticScene:
     """Build a preset synthetic scene (plan, true model, variants, simulated scan).
 
     Parameters
@@ -464,6 +464,9 @@ def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
     surroundings : bool
         Ground, trees and a neighbour's facade outside the building, seen through windows
         and open exterior doors (:attr:`ScanParams.surroundings`).
+    positions_per_storey : int, optional
+        Terrestrial only: at most this many scanner positions per storey, in its biggest
+        rooms (:attr:`ScanParams.positions_per_storey`; 1: single-position scans).
     progress, should_stop : callbacks (see :class:`engine.progress.Progress`)
 
     Returns
@@ -479,14 +482,15 @@ def preset(name: str, *, seed: int = 0, noise: Union[str, float] = "tls",
     return scene_from_plans(plans, name=name, seed=seed, noise=noise, target_points=target_points,
                             scale=scale, clutter=clutter, furnish_params=furnish_params,
                             surroundings=surroundings, scanned="changed" if name in ("change_demo", "change_office") else "truth",
-                            progress=progress, should_stop=should_stop)
+                            positions_per_storey=positions_per_storey, progress=progress, should_stop=should_stop)
 
 
 def scene_from_plans(plans: Mapping[str, FloorPlan], *, name: Optional[str] = None, seed: int = 0,
                      noise: Union[str, float] = "tls", target_points: Optional[int] = None,
                      scale: float = 1.0, clutter: bool = True,
                      furnish_params: FurnishParams = FurnishParams(), scanned: str = "truth",
-                     surroundings: bool = True, progress=None, should_stop=None) -> SyntheticScene:
+                     surroundings: bool = True, positions_per_storey: Optional[int] = None, progress=None,
+                     should_stop=None) -> SyntheticScene:
     """A synthetic scene from floor plans: ``plans["truth"]`` is the true building, the
     other entries are variants; ``plans[scanned]`` is the building that is scanned.
 
@@ -504,7 +508,8 @@ def scene_from_plans(plans: Mapping[str, FloorPlan], *, name: Optional[str] = No
     target = int(target_points) if target_points is not None else int(round(DEFAULT_POINTS * scale))
     if not 0 < target <= MAX_POINTS:
         raise InputError(f"target_points must be between 1 and {MAX_POINTS:,}, not {target:,}")
-    params = replace(scan_params_for(noise, target), surroundings=bool(surroundings))
+    params = replace(scan_params_for(noise, target), surroundings=bool(surroundings),
+                     positions_per_storey=None if positions_per_storey is None else int(positions_per_storey))
     ss = np.random.SeedSequence(int(seed))
     rng_furnish, rng_scan = (np.random.default_rng(s) for s in ss.spawn(2))
     timings = {}

@@ -137,6 +137,18 @@ class ScanParams:
     """Rays of the pilot scan that measures the hit rate for ``target_points``."""
     batch_rays: int = 1_000_000
     """Rays cast per call to the ray caster (bounds the memory)."""
+    positions_per_storey: Optional[int] = None
+    """Terrestrial mode: when set, at most this many scanner positions per storey, one in each
+    of its biggest scanned rooms, biggest first, at the most central free spot (1: a
+    single-position scan of each floor, seeing the other rooms only through doors); None: the
+    positions of every scanned room. Not for mobile mode."""
+
+    def __post_init__(self):
+        if self.positions_per_storey is not None:
+            if int(self.positions_per_storey) < 1:
+                raise InputError(f"positions_per_storey must be at least 1, not {self.positions_per_storey!r}")
+            if self.mode == "mobile":
+                raise InputError("positions_per_storey is for terrestrial scans, not a mobile walk")
 
 
 @dataclass(frozen=True)
@@ -219,18 +231,47 @@ def _room_positions(plan, room, params, clutter):
     return _spread(cands, k)
 
 
+def fps_of(plan: FloorPlan) -> dict:
+    """Clutter footprints per room name."""
+    fps: dict = {}
+    for c in plan.clutter:
+        fps.setdefault(c.room, []).append(c.footprint())
+    return fps
+
+
+def _few_positions(plan: FloorPlan, params: ScanParams, fps: dict) -> np.ndarray:
+    """``params.positions_per_storey`` positions per storey: the most central free spot of
+    each of its biggest scanned rooms."""
+    out = []
+    for s in range(len(plan.storeys)):
+        rooms = sorted((r for r in plan.rooms if r.scanned and r.storey == s), key=lambda r: -r.shape.area)
+        k = 0
+        for room in rooms:
+            if k >= params.positions_per_storey:
+                break
+            cands = _candidates(room.shape, params, fps.get(room.name, []))
+            if len(cands):
+                xy = _spread(cands, 1)
+                out.append(np.column_stack([xy, np.full(len(xy), plan.floor_z(room) + params.scanner_height)]))
+                k += 1
+    return np.vstack(out) if out else np.zeros((0, 3))
+
+
 def scanner_positions(plan: FloorPlan, params: ScanParams = ScanParams(),
                       geometry: Optional[PlanGeometry] = None) -> np.ndarray:
     """Scanner origins for the plan: (k, 3) float64, metres.
 
     Terrestrial mode: per scanned room, ``max(area / area_per_scan, long side /
     max_scan_spacing, 1)`` positions spread over the free floor (away from walls and
-    clutter). Mobile mode: every ``path_step`` along a walk that visits each scanned room
+    clutter; with ``positions_per_storey``, only that many per storey, in the biggest
+    rooms). Mobile mode: every ``path_step`` along a walk that visits each scanned room
     (through its terrestrial positions) and crosses the open doors between them, per
     storey. Unscanned rooms get none.
     """
     g = plan_geometry(plan) if geometry is None else geometry
     fps = {}
+    if params.mode == "tls" and params.positions_per_storey is not None:
+        return _few_positions(plan, params, fps_of(plan))
     for c in plan.clutter:
         fps.setdefault(c.room, []).append(c.footprint())
     per_room = {}
