@@ -370,36 +370,42 @@ def _nearest_surface(patches, xyz: np.ndarray, point_type: np.ndarray, cluster: 
     at the corner). Within a new wall's extent (not in its new doors and windows), a point
     nearer to a face of the wall than to any model surface is new; one nearer to a model
     surface (within r) exists."""
-    cand_mask = np.zeros(len(xyz), dtype=bool)
-    d_new = np.full(len(xyz), np.inf)
-    owner = np.full(len(xyz), -1, dtype=np.int32)
+    from ..evaluation.coverage import PointBuckets
+    buckets = PointBuckets(xyz, 1.0)
+    parts = []  # (point index, distance to the wall's nearer face, the wall's cluster) per wall
     for w in walls:
-        a, b = (np.asarray(x, dtype=np.float64) for x in w["axis_line"])
-        length = float(np.linalg.norm(b - a))
-        if length <= 0:
+        b = w["shape"].geometry.bounds
+        idx = buckets.in_box(b[0] - r, b[1] + r)  # the wall's box only, not the whole scan
+        a, e = (np.asarray(x, dtype=np.float64) for x in w["axis_line"])
+        length = float(np.linalg.norm(e - a))
+        if length <= 0 or len(idx) == 0:
             continue
-        d = (b - a) / length
-        n = np.array([-d[1], d[0]])
-        rel = xyz[:, :2] - a
-        u, v = rel @ d, rel @ n
+        d = (e - a) / length
+        rel = xyz[idx, :2] - a
+        u, v = rel @ d, rel @ np.array([-d[1], d[0]])
         inside = ((u >= 0.0) & (u <= length) & (np.abs(v) <= w["thickness"] / 2 + r)
-                  & (xyz[:, 2] >= w["z0"] - r) & (xyz[:, 2] <= w["z1"] + r))
-        dist = np.abs(np.abs(v) - w["thickness"] / 2)
-        better = inside & (dist < d_new)
-        d_new[better] = dist[better]
-        owner[better] = int(w["cluster"])
-        cand_mask |= inside
-    cand_mask &= ~_in_boxes(openings, xyz, r)  # a doorway's floor and reveals stay as classified
-    cand = np.flatnonzero(cand_mask & (d_new <= r) & ((point_type == NEW) | (point_type == EXISTING)))
+                  & (xyz[idx, 2] >= w["z0"] - r) & (xyz[idx, 2] <= w["z1"] + r))
+        parts.append((idx[inside], np.abs(np.abs(v[inside]) - w["thickness"] / 2),
+                      np.full(int(inside.sum()), int(w["cluster"]), dtype=np.int32)))
+    if not parts:
+        return
+    cand, dn, own = (np.concatenate(x) for x in zip(*parts))
+    order = np.lexsort((dn, cand))  # per point, its nearest new-wall face first
+    first = np.r_[True, np.diff(cand[order]) != 0]
+    cand, dn, own = cand[order][first], dn[order][first], own[order][first]
+    keep = ((dn <= r) & ((point_type[cand] == NEW) | (point_type[cand] == EXISTING))
+            & ~_in_boxes(openings, xyz[cand], r))  # a doorway's floor and reveals stay as classified
+    cand, dn, own = cand[keep], dn[keep], own[keep]
     if len(cand) == 0:
         return
     d_old = patch_support(patches, xyz[cand], r).distance  # geometric: no normal test here
-    to_new = (d_new[cand] < d_old) & (point_type[cand] == EXISTING)
-    to_old = (d_new[cand] >= d_old) & (d_old <= r) & (point_type[cand] == NEW)
+    to_new = (dn < d_old) & (point_type[cand] == EXISTING)
+    to_old = (dn >= d_old) & (d_old <= r) & (point_type[cand] == NEW)
     point_type[cand[to_new]] = NEW
-    cluster[cand[to_new]] = owner[cand[to_new]]  # new points of other clusters keep theirs
+    cluster[cand[to_new]] = own[to_new]  # new points of other clusters keep theirs
     point_type[cand[to_old]] = EXISTING
     cluster[cand[to_old]] = -1
+
 
 def _in_openings(model: BuildingModel, xyz: np.ndarray, r: float) -> np.ndarray:
     """(n,) bool — points inside (within r of) the box of a door or window of the model."""

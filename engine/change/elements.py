@@ -237,11 +237,8 @@ def _ray_evidence(f, geom, rays, r: float, p: StatusParams) -> float:
     return float(min(1.0, alpha_area(xy[inside], p.alpha_radius, thin=p.alpha_radius * p.thin) / geom.area))
 
 
-def _coverage(f, geom, pts: np.ndarray, p: StatusParams) -> float:
-    if len(pts) < 3:
-        return 0.0
-    xy = f.to2d(pts)
-    xy = xy[_inside(geom, xy)]
+def _coverage(geom, xy: np.ndarray, p: StatusParams) -> float:
+    """Alpha-shape area of the face points ``xy`` (face frame, inside ``geom``) / its area."""
     if len(xy) < 3:
         return 0.0
     return float(min(1.0, alpha_area(xy, p.alpha_radius, thin=p.alpha_radius * p.thin) / geom.area))
@@ -310,12 +307,13 @@ def element_status(model: BuildingModel, xyz: np.ndarray, existing: np.ndarray, 
             cand = ex_buckets.in_box(outline.min(axis=0) - r, outline.max(axis=0) + r)
             pts = xyz[ex[cand]]
             dist = pts @ f.normal - f.rho
-            pts, dist = pts[np.abs(dist) <= r], dist[np.abs(dist) <= r]
-            cov = _coverage(f, geom, pts, p)
+            near = np.abs(dist) <= r
+            xy, dist = f.to2d(pts[near]), dist[near]
+            inside = _inside(geom, xy)
+            cov = _coverage(geom, xy[inside], p)
             absent = _ray_evidence(f, geom, rays, r, p) if rays is not None else 0.0
             rings = [f.to3d(np.asarray(g.exterior.coords)[:-1]).tolist()
                      for g in getattr(geom, "geoms", [geom]) if isinstance(g, Polygon) and not g.is_empty]
-            inside = _inside(geom, f.to2d(pts)) if len(pts) else np.zeros(0, dtype=bool)
             rows.append({"key": f.key, "area_m2": float(geom.area), "coverage": cov, "absent": absent,
                          "polygon": rings,
                          "offset": float(np.median(dist[inside])) if inside.sum() >= 10 else None})
