@@ -88,6 +88,10 @@ class OpeningParams:
     """Lower gaps above the floor are not windows, metres."""
     floor_tolerance: Metres = 0.2
     """A gap starting this close to the floor reaches the floor, metres."""
+    min_sill: Metres = 0.05
+    """A floor-reaching gap whose bottom inside the thickness (the material under the hole:
+    the floor through a doorway, a sill's top under a window) lies this far above the floor
+    or more is a window with that sill, not a door, metres."""
     ceiling_tolerance: Metres = 0.15
     """A gap ending this close to the ceiling reaches the ceiling, metres."""
     min_seen_through: Ratio = 0.15
@@ -315,6 +319,10 @@ class _Data:
     face: np.ndarray
     inside: np.ndarray
     floor: np.ndarray          # (nu,) floor points inside the thickness
+    bottom: np.ndarray         # (nu,) per column, the lowest points inside the thickness
+                               # up to 0.4 m (their 20th percentile z), NaN without any
+    low_face: np.ndarray       # (nu,) vertical points on a face plane just above the floor
+                               # (a sill's face under a window; a doorway has none)
     front: np.ndarray          # points in front of each face, projected perpendicularly
     leaf: np.ndarray           # points leaf_depth behind each face
     through: np.ndarray        # ray test: cells seen through from each side
@@ -369,12 +377,32 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, 
     return _Data(face=np.stack([raster(on[0]), raster(on[1])]),
                  inside=raster(inside & core & inz),
                  floor=np.bincount(iu[inside & low], minlength=nu).astype(np.float64),
+                 bottom=_low_quantile(iu, z - w.floor_z, inside & (z > w.floor_z - p.edge_band)
+                                      & (z < w.floor_z + 0.4), nu),
+                 low_face=np.bincount(iu[((np.abs(v - vl) < t) | (np.abs(v - vr) < t)) & vertical
+                                         & (z > w.floor_z + 0.03) & (z <= w.floor_z + p.edge_band)],
+                                      minlength=nu).astype(np.float64),
                  front=np.stack([raster(front[0] & mid), raster(front[1] & mid)]),
                  leaf=np.stack([raster(leaf[0] & core & inz), raster(leaf[1] & core & inz)]),
                  through=np.zeros((2, nu, nz)), shadow=np.zeros((2, nu, nz)),
                  fu=u[either], fz=z[either], scans=scans,
                  fcls=np.where(on[0], 0, np.where(on[1], 1, 2))[either].astype(np.int8),
                  fdev=np.where(on[0], np.abs(v - vl), np.where(on[1], np.abs(v - vr), 0.0))[either])
+
+
+def _low_quantile(col: np.ndarray, h: np.ndarray, mask: np.ndarray, n: int, q: float = 0.2) -> np.ndarray:
+    """Per column (0..n-1), the ``q`` quantile of ``h`` over the masked points; NaN where
+    a column has none (one sort, linear after it)."""
+    out = np.full(n, np.nan)
+    c, v = col[mask], h[mask]
+    if not len(c):
+        return out
+    order = np.lexsort((v, c))
+    c, v = c[order], v[order]
+    starts = np.flatnonzero(np.r_[True, c[1:] != c[:-1]])
+    counts = np.diff(np.r_[starts, len(c)])
+    out[c[starts]] = v[starts + np.floor(q * (counts - 1)).astype(np.int64)]
+    return out
 
 
 def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, tol: float,
@@ -571,6 +599,18 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     eb = z0 if floor_reach else _edge(fz, fu, fin, zb - srch, zb + c, el + 0.05, er - 0.05, True)
     eb = zb - c if eb is None else eb
     width = er - el
+    if floor_reach and side is None and not leafy:
+        # the material under the hole: the floor through a doorway, a sill's top under a window
+        ia, ib = max(0, int(el / c)), max(0, int(math.ceil(er / c)))
+        cols = dd.bottom[ia:ib]
+        seen = cols[np.isfinite(cols)]
+        if len(seen) >= max(2, 0.5 * len(cols)):
+            if float(np.median(seen)) >= p.min_sill:
+                floor_reach, eb = False, z0 + float(np.median(seen))
+        elif ib - ia > 2 and float((dd.low_face[ia + 1:ib - 1] > 0).mean()) >= 0.6:
+            # the sill's top unseen, its face seen right above the floor all along the hole
+            top = _edge(fz, fu, fin, z0, zb + c, el + 0.05, er - 0.05, True)
+            floor_reach, eb = False, max(z0 + p.min_sill, zb - c if top is None else top)
     if floor_reach:
         if not p.min_door_width <= width <= p.max_opening_width:
             return None

@@ -176,6 +176,25 @@ def test_a_window_hole_with_points_beyond_is_a_window(rays):
         assert win.support["seen_through"] >= 0.3
 
 
+@pytest.mark.parametrize("rays", [True, False])
+@pytest.mark.parametrize("sill", [0.1, 0.15])
+def test_a_tall_window_with_a_low_sill_is_a_window_not_a_door(rays, sill):
+    """A 0.8 m wide window from a low sill (closer to the floor than floor_tolerance) to
+    2.3 m: the sill's top inside the thickness, not the floor, is under the hole."""
+    hole = (1.5, 2.3, sill, 2.3)
+    outside = [((-5.0, -6.2, 0.0), (L + 5.0, -6.0, 8.0)), ((-5.0, -6.0, -0.2), (L + 5.0, -T_EXT / 2, 0.0))]
+    boxes = _room(T_EXT / 2, 4.0) + _holed_wall(T_EXT, hole) + outside
+    walls = [_wall("w_ext", 0.0, 0.0, L, T_EXT, ("room_a", None), True)]
+    xyz, idx, pos = _scan(boxes, [(1.0, 2.5, 1.5), (3.6, 1.8, 1.5)], glass=hole)
+    ops = detect_openings(walls, [STOREY], xyz, scan_index=idx if rays else None,
+                          scanner_positions=pos if rays else None, exterior_ids={0: "outside_0"})
+    assert len(ops) == 1, [o.attributes for o in ops]
+    a = ops[0].attributes
+    assert ops[0].type == ShapeType.WINDOW and a["kind"] == "window"
+    assert abs(a["sill"] - sill) <= 0.03 and abs(a["sill"] + a["height"] - 2.3) <= 0.05
+    assert abs(a["width"] - 0.8) <= 0.05
+
+
 def test_a_closed_door_is_a_recessed_leaf_in_a_door_sized_gap():
     """A 4 cm leaf whose face is 3 cm behind room_a's wall face (8 cm behind room_b's)."""
     leaf = ((DOOR[0], T_INT / 2 - 0.07, 0.0), (DOOR[1], T_INT / 2 - 0.03, DOOR[3]))
