@@ -17,6 +17,7 @@ import time
 from typing import Optional
 
 import numpy as np
+import shapely
 from shapely.geometry import Point, Polygon
 from shapely.ops import unary_union
 
@@ -191,18 +192,34 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
                 fps[s.id] = g
         if fps:
             footprints[k] = fps
-    per_storey = {k: _storey_walls(base, k, by_storey[k], fps, prm, old_ext.get(k, []))
+    xyz_model = _model_points(model, cloud) if cloud is not None else None
+    solid = {}
+    if xyz_model is not None and not detect:  # no openings to tell a hole: the points alone
+        solid = {k: _SolidTest(xyz_model, by_storey[k], prm) for k in footprints}
+    per_storey = {k: _storey_walls(base, k, by_storey[k], fps, prm, old_ext.get(k, []), solid=solid.get(k))
                   for k, fps in footprints.items()}
-    xyz_model = _model_points(model, cloud) if detect else None
+    if not detect:
+        xyz_model = None
     detected = []
     if xyz_model is not None:
         first = [w for st in per_storey.values() for w in st[0]]
         base_ext = base.with_(shapes=base.shapes + tuple(st[1] for st in per_storey.values()))
         detected = _detect(base_ext, first, xyz_model, cloud, prm)
-        # exterior walls measured through their openings: the runs again with that thickness
+        # interior walls interrupted from floor to ceiling end there (an open plan, not an
+        # opening); exterior walls measured through their openings get that thickness
+        breaks, detected = _breaks(first, detected, prm)
         measured = _measured_exteriors(first, detected, xyz_model, prm)
-        for k, regions in measured.items():
-            per_storey[k] = _storey_walls(base, k, by_storey[k], footprints[k], prm, old_ext.get(k, []), regions)
+        # rooms farther apart than max_thickness: a thick wall where the gap is solid (empty
+        # in the scan, and no opening into it seen through)
+        seen = [o for o in detected
+                if float((o.support or {}).get("seen_through", 0.0)) >= prm.openings.min_seen_through]
+        for k in footprints:
+            solid[k] = _SolidTest(xyz_model, by_storey[k], prm, [o for o in seen if o.storey == k])
+            per_storey[k] = _storey_walls(base, k, by_storey[k], footprints[k], prm, old_ext.get(k, []),
+                                          measured.get(k), breaks.get(k, ()), solid[k])
+        # openings found in the faces of a gap that is a solid wall now were none
+        detected = [o for o in detected if not any(r.contains(Point(o.centroid[:2]))
+                                                   for r in solid[o.storey].found if o.storey in solid)]
     for k, (st_walls, ext, rels, geo) in per_storey.items():
         new_shapes.extend(st_walls)
         walls.extend(st_walls)
@@ -250,9 +267,9 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
 
 
 def _storey_walls(base: BuildingModel, k: int, spaces: list, fps: dict, prm: ElementsParams, old_ext: list,
-                  measured=None):
+                  measured=None, breaks=(), solid=None):
     """One storey's wall shapes, exterior, relations and (outline, spaces, footprints)."""
-    runs, open_pairs = wall_runs(fps, k, prm.walls, measured)
+    runs, open_pairs = wall_runs(fps, k, prm.walls, measured, breaks, solid)
     z0 = min(float(s.bounds[0, 2]) for s in spaces)
     z1 = max(float(s.bounds[1, 2]) for s in spaces)
     ext_id = f"exterior_s{k}"
@@ -283,6 +300,60 @@ def _storey_walls(base: BuildingModel, k: int, spaces: list, fps: dict, prm: Ele
 def _model_points(model: BuildingModel, cloud) -> np.ndarray:
     T = np.linalg.inv(model.transform)
     return cloud.xyz @ T[:3, :3].T + T[:3, 3]
+
+
+class _SolidTest:
+    """``solid(region) -> bool`` for one storey: at most ``solid_share`` of the region's
+    ``cell`` plan cells hold scan points between the storey's floor and ceiling (± 5 cm), and
+    no opening seen through (``openings``) lies in it or in its faces. ``found``: the regions
+    judged solid."""
+
+    def __init__(self, xyz: np.ndarray, spaces: list, prm: ElementsParams, openings=(), cell: float = 0.1):
+        z0 = min(float(s.bounds[0, 2]) for s in spaces) - 0.05
+        z1 = max(float(s.bounds[1, 2]) for s in spaces) + 0.05
+        self.pts = xyz[(xyz[:, 2] >= z0) & (xyz[:, 2] <= z1)]
+        self.grid = PointGrid(self.pts)
+        self.share, self.cell = prm.walls.solid_share, cell
+        self.reach = prm.walls.solid_margin + 0.1
+        self.openings = [Point(o.centroid[:2]) for o in openings]
+        self.found = []
+
+    def __call__(self, region) -> bool:
+        if region.area <= 0:
+            return False
+        near = region.buffer(self.reach, join_style="mitre")
+        if any(near.contains(p) for p in self.openings):
+            return False
+        x0, y0, x1, y1 = region.bounds
+        idx = self.grid.in_box(np.array([x0, y0]), np.array([x1, y1]))
+        p = self.pts[idx, :2]
+        p = p[shapely.contains_xy(region, p[:, 0], p[:, 1])]
+        cells = len(np.unique(np.floor(p / self.cell).astype(np.int64), axis=0)) if len(p) else 0
+        if cells > self.share * max(region.area / self.cell ** 2, 1.0):
+            return False
+        self.found.append(near)
+        return True
+
+
+def _breaks(walls: list[Shape], openings: list[Shape], prm: ElementsParams) -> tuple[dict, list]:
+    """({storey: [plan region]}, the other openings): doorless openings in interior walls
+    that reach from the floor to the ceiling. With no wall above them they are where the
+    wall ends, not holes in it; the region is the opening's footprint across the wall."""
+    by_id = {w.id: w for w in walls}
+    tol = prm.openings.ceiling_tolerance
+    breaks, rest = {}, []
+    for o in openings:
+        w = by_id.get(o.parent)
+        a = o.attributes
+        if (w is None or w.attributes.get("external") or a.get("kind") != "opening"
+                or float(a.get("sill", 0.0)) > 1e-6
+                or float(a.get("sill", 0.0)) + float(a.get("height", 0.0)) < float(w.attributes["height"]) - tol):
+            rest.append(o)
+            continue
+        fp = o.geometry.footprint()
+        region = (Polygon(fp) if fp is not None else Polygon(o.geometry.vertices[:, :2]).convex_hull)
+        breaks.setdefault(w.storey, []).append(region.buffer(0.05, join_style="mitre"))
+    return breaks, rest
 
 
 def _measured_exteriors(walls: list[Shape], openings: list[Shape], xyz: np.ndarray, prm: ElementsParams) -> dict:

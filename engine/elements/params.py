@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..quantities import Flag, Metres, Radians
+from ..quantities import Flag, Metres, Radians, Ratio
 from .openings import OpeningParams
 
 __all__ = ["WallRunParams", "SlabParams", "ElementsParams"]
@@ -17,6 +17,16 @@ class WallRunParams:
     max_thickness: Metres = 0.7
     """Two room faces facing each other at most this far apart have a wall between them
     (a party wall of 0.6 m is a wall), metres."""
+    max_solid_thickness: Metres = 1.2
+    """With a scan: room faces farther apart than ``max_thickness`` but at most this far have
+    a wall between them (a party wall, a shaft) when the scan holds no points inside the gap
+    away from its faces (it is solid, not a space left out), metres."""
+    solid_margin: Metres = 0.15
+    """The strip this close to either room face is left out of that test (the wall's faces
+    lie in it when the rooms stop short of them), metres."""
+    solid_share: Ratio = 0.35
+    """A gap is solid when at most this share of its 10 cm plan cells (away from the faces)
+    hold points (a doorway through a thick wall holds some)."""
     min_thickness: Metres = 0.03
     """Facing room faces closer than this meet without a wall (an open plan), metres."""
     exterior_thickness: Metres = 0.3

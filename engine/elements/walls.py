@@ -142,9 +142,32 @@ def _subtract(intervals, lo, hi):
     return [(a, b) for a, b in out if b > a]
 
 
-def _pieces(footprints: dict, prm: WallRunParams, measured=None):
+def _split_at_breaks(piece: _Piece, breaks, prm: WallRunParams) -> list:
+    """The parts of an interior piece outside the break regions (plan polygons)."""
+    line = LineString([piece.a, piece.b])
+    length = line.length
+    cut = []
+    for region in breaks:
+        if not region.intersects(line):
+            continue
+        part = line.intersection(region)
+        if part.is_empty:
+            continue
+        ts = [line.project(Point(xy)) for g in getattr(part, "geoms", [part]) for xy in np.asarray(g.coords)]
+        cut.append((min(ts), max(ts)))
+    if not cut:
+        return [piece]
+    d = (piece.b - piece.a) / max(length, 1e-12)
+    return [_Piece(piece.a + d * u0, piece.a + d * u1, piece.thickness, piece.external, piece.left, piece.right,
+                   piece.measured) for u0, u1 in _subtract(cut, 0.0, length) if u1 - u0 >= prm.min_length]
+
+
+def _pieces(footprints: dict, prm: WallRunParams, measured=None, breaks=(), solid=None):
     """Interior and exterior wall pieces and the open-plan pairs of one storey; ``measured``
-    [(region, thickness)]: exterior pieces whose default axis lies in a region get its thickness."""
+    [(region, thickness)]: exterior pieces whose default axis lies in a region get its thickness;
+    ``breaks`` [region]: interior pieces stop there and their two spaces meet without a wall;
+    ``solid(region) -> bool``: whether a gap wider than ``max_thickness`` (up to
+    ``max_solid_thickness``) is solid in the scan, so a thick wall."""
     P, Q, owner = _edges(footprints, prm.simplify)
     m = len(P)
     if m == 0:
@@ -159,18 +182,23 @@ def _pieces(footprints: dict, prm: WallRunParams, measured=None):
     covered = [[] for _ in range(m)]
     pieces, open_pairs = [], set()
     # every edge against the edges within max_thickness of it
-    qi, qj = tree.query(lines, predicate="dwithin", distance=prm.max_thickness)
+    reach = max(prm.max_thickness, prm.max_solid_thickness) if solid is not None else prm.max_thickness
+    qi, qj = tree.query(lines, predicate="dwithin", distance=reach)
+    thick = []  # (gap, i, j): facing edges farther apart than max_thickness, tested below
     for i, j in zip(qi.tolist(), qj.tolist()):
         if i >= j or owner[i] == owner[j]:
             continue
         if float(D[i] @ D[j]) > -cos_par:
             continue
         s = float(N[i] @ (0.5 * (P[j] + Q[j]) - P[i]))  # gap from edge i outward to edge j
-        if s > prm.max_thickness or s < -prm.min_thickness:
+        if s > reach or s < -prm.min_thickness:
             continue
         u_a, u_b = float(D[i] @ (P[j] - P[i])), float(D[i] @ (Q[j] - P[i]))
         u0, u1 = max(0.0, min(u_a, u_b)), min(L[i], max(u_a, u_b))
         if u1 - u0 < prm.min_length:
+            continue
+        if s > prm.max_thickness:
+            thick.append((s, i, j, u0, u1))
             continue
         # the same interval on edge j
         v_a, v_b = float(D[j] @ (P[i] + D[i] * u0 - P[j])), float(D[j] @ (P[i] + D[i] * u1 - P[j]))
@@ -181,7 +209,29 @@ def _pieces(footprints: dict, prm: WallRunParams, measured=None):
             continue
         off = N[i] * (s / 2)
         a, b = P[i] + D[i] * u0 + off, P[i] + D[i] * u1 + off
-        pieces.append(_Piece(a, b, s, False, owner[i], owner[j], True))
+        piece = _Piece(a, b, s, False, owner[i], owner[j], True)
+        parts = _split_at_breaks(piece, breaks, prm) if breaks else [piece]
+        if len(parts) != 1 or parts[0] is not piece:
+            open_pairs.add(tuple(sorted((owner[i], owner[j]))))
+        pieces.extend(parts)
+    # thicker gaps, nearest first, where the edges are not yet paired: a wall when solid
+    for s, i, j, u0, u1 in sorted(thick):
+        free = _subtract(covered[i], u0, u1)
+        if not free:
+            continue
+        u0, u1 = max(free, key=lambda x: x[1] - x[0])
+        if u1 - u0 < prm.min_length:
+            continue
+        mg = prm.solid_margin
+        core = Polygon([P[i] + D[i] * u0 + N[i] * mg, P[i] + D[i] * u1 + N[i] * mg,
+                        P[i] + D[i] * u1 + N[i] * (s - mg), P[i] + D[i] * u0 + N[i] * (s - mg)])
+        if not solid(core):
+            continue
+        v_a, v_b = float(D[j] @ (P[i] + D[i] * u0 - P[j])), float(D[j] @ (P[i] + D[i] * u1 - P[j]))
+        covered[i].append((u0, u1))
+        covered[j].append((min(v_a, v_b), max(v_a, v_b)))
+        off = N[i] * (s / 2)
+        pieces.append(_Piece(P[i] + D[i] * u0 + off, P[i] + D[i] * u1 + off, s, False, owner[i], owner[j], True))
     t = prm.exterior_thickness
     # the building closed over its walls: a face whose outside lies in it is at a junction
     # or a niche, not on the exterior
@@ -206,8 +256,16 @@ def _pieces(footprints: dict, prm: WallRunParams, measured=None):
     return pieces, open_pairs
 
 
-def _runs_of(pieces: list, storey: int, prm: WallRunParams) -> list:
-    """Collinear pieces of one kind and thickness → runs."""
+def _bridges_break(d, n, c: float, u0: float, u1: float, breaks) -> bool:
+    """Whether the stretch u0..u1 of the line ``n·x = c`` (direction ``d``) crosses a break."""
+    if not breaks or u1 <= u0:
+        return False
+    seg = LineString([d * u0 + n * c, d * u1 + n * c])
+    return any(region.intersects(seg) for region in breaks)
+
+
+def _runs_of(pieces: list, storey: int, prm: WallRunParams, breaks=()) -> list:
+    """Collinear pieces of one kind and thickness → runs (never across a break)."""
     if not pieces:
         return []
     recs = []
@@ -267,7 +325,9 @@ def _runs_of(pieces: list, storey: int, prm: WallRunParams) -> list:
                     reach = prm.doorway_bridge if same_rooms else prm.max_thickness
                     if (it[3].external == last[3].external
                             and abs(it[3].thickness - _thick(ch)) <= prm.thickness_tolerance
-                            and it[1] <= end + reach):
+                            and it[1] <= end + reach
+                            and not _bridges_break(d, n, 0.5 * (it[0] + last[0]), end + 1e-3, it[1] - 1e-3,
+                                                   breaks)):
                         ch.append(it)
                         break
                 else:
@@ -365,15 +425,20 @@ def _join(runs: list, prm: WallRunParams) -> None:
             r.spans = [(u0 + shift, u1 + shift, lft, rgt) for u0, u1, lft, rgt in r.spans]
 
 
-def wall_runs(footprints: dict, storey: int, prm: WallRunParams = WallRunParams(), measured=None):
+def wall_runs(footprints: dict, storey: int, prm: WallRunParams = WallRunParams(), measured=None, breaks=(),
+              solid=None):
     """Wall runs of one storey from its spaces' footprints (``{space id: shapely geometry}``);
-    ``measured``: [(shapely region, thickness m)] of exterior walls measured in the scan.
+    ``measured``: [(shapely region, thickness m)] of exterior walls measured in the scan;
+    ``breaks``: [shapely region] where an interior wall is interrupted (a gap from floor to
+    ceiling seen in the scan): the wall stops there and the two spaces meet without one;
+    ``solid(region) -> bool``: whether the scan holds (almost) no points in a plan region,
+    so that rooms up to ``max_solid_thickness`` apart have a thick wall between them.
 
     Returns ``(runs, open_pairs)``: the runs (joined, ends met) and the pairs of spaces that
     meet without a wall.
     """
-    pieces, open_pairs = _pieces(footprints, prm, measured)
-    runs = [r for r in _runs_of(pieces, storey, prm) if r.length >= prm.min_length]
+    pieces, open_pairs = _pieces(footprints, prm, measured, breaks, solid)
+    runs = [r for r in _runs_of(pieces, storey, prm, breaks) if r.length >= prm.min_length]
     _join(runs, prm)
     # meeting ends can shorten a run below the minimum: drop it, and the joins to it
     keep = [i for i, r in enumerate(runs) if r.length >= prm.min_length]

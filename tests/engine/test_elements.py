@@ -162,3 +162,79 @@ def test_reveal_depth_measures_an_exterior_wall_through_its_window():
     assert t == pytest.approx(0.45, abs=0.02)
     # no reveal points: no measurement
     assert reveal_depth(wall, [win], PointGrid(np.vstack([face, beyond])), 1, 0.7) is None
+
+
+# ----------------------------------------------------------------------------- breaks and thick gaps
+def _runs(fps, **kw):
+    from engine.elements.walls import wall_runs
+
+    return wall_runs({k: Polygon(v) for k, v in fps.items()}, 0, WallRunParams(), **kw)
+
+
+def test_a_floor_to_ceiling_break_ends_the_wall_and_the_rooms_meet_there():
+    """An 8 m partition interrupted over x 3–5.5 (a gap from floor to ceiling): two runs that
+    stop at the break, and the two rooms meet without a wall there (an open plan)."""
+    fps = {"a": _rect(0, 0, 8, 4), "b": _rect(0, 4.1, 8, 8)}
+    runs, open_pairs = _runs(fps)
+    inner = [r for r in runs if not r.external]
+    assert len(inner) == 1 and inner[0].length == pytest.approx(8.0, abs=0.35) and not open_pairs
+    brk = Polygon(_rect(3.0, 3.9, 5.5, 4.2))
+    runs, open_pairs = _runs(fps, breaks=[brk])
+    inner = sorted((r for r in runs if not r.external), key=lambda r: min(r.a[0], r.b[0]))
+    assert len(inner) == 2, [(r.a, r.b) for r in inner]
+    assert max(inner[0].a[0], inner[0].b[0]) == pytest.approx(3.0, abs=0.02)
+    assert min(inner[1].a[0], inner[1].b[0]) == pytest.approx(5.5, abs=0.02)
+    assert ("a", "b") in open_pairs
+    assert all(not brk.buffer(-0.01).intersects(Polygon(r.footprint())) for r in runs)
+
+
+def test_a_solid_gap_wider_than_max_thickness_is_one_thick_wall():
+    """Rooms 0.9 m apart (more than max_thickness 0.7): a party wall when the scan says the gap
+    is solid, else each room gets its exterior wall; no scan, no test: exterior walls."""
+    fps = {"a": _rect(0, 0, 5, 6), "b": _rect(5.9, 0, 10.9, 6)}
+    asked = []
+
+    def solid(region):
+        asked.append(region)
+        return True
+
+    runs, _ = _runs(fps, solid=solid)
+    inner = [r for r in runs if not r.external]
+    assert len(inner) == 1 and inner[0].thickness == pytest.approx(0.9, abs=0.005)
+    assert sorted(inner[0].sides()) == ["a", "b"]
+    # the region asked about is the gap's core, clear of the faces by solid_margin
+    m = WallRunParams().solid_margin
+    assert asked and asked[0].bounds[0] == pytest.approx(5.0 + m, abs=1e-6)
+    assert asked[0].bounds[2] == pytest.approx(5.9 - m, abs=1e-6)
+    for s in (lambda r: False, None):
+        runs, _ = _runs(fps, solid=s)
+        assert all(r.external for r in runs)
+    # farther apart than max_solid_thickness: never asked, no wall between
+    asked.clear()
+    runs, _ = _runs({"a": _rect(0, 0, 5, 6), "b": _rect(6.5, 0, 11.5, 6)}, solid=solid)
+    assert not asked and all(r.external for r in runs)
+
+
+def _gap_cloud(floor_in_gap: bool):
+    """Points of two rooms 0.9 m apart: their floors, their faces 0.1 m inside the gap (the
+    rooms stop short of the wall), and, when ``floor_in_gap``, floor points in the gap."""
+    from engine.pointcloud import PointCloud
+
+    rng = np.random.default_rng(0)
+    floor = rng.uniform([0, 0, 0], [10.9, 6, 0], (40_000, 3))
+    keep = (floor[:, 0] < 5.0) | (floor[:, 0] > 5.9) | floor_in_gap
+    faces = [np.column_stack([np.full(4000, x), rng.uniform(0, 6, 4000), rng.uniform(0, 2.8, 4000)])
+             for x in (5.1, 5.8)]
+    xyz = np.vstack([floor[keep]] + faces) + rng.normal(0, 0.005, (int(keep.sum()) + 8000, 3))
+    return PointCloud(xyz=xyz)
+
+
+@pytest.mark.parametrize("floor_in_gap", [False, True])
+def test_a_thick_wall_needs_an_empty_gap_in_the_scan(floor_in_gap):
+    m = _model([_rect(0, 0, 5, 6), _rect(5.9, 0, 10.9, 6)])
+    out = building_elements(m, _gap_cloud(floor_in_gap), params=NO_SCAN)
+    inner = [w for w in out.walls if not w.attributes["external"]]
+    if floor_in_gap:  # a space the reconstruction left out, not a wall
+        assert inner == []
+    else:
+        assert len(inner) == 1 and inner[0].attributes["thickness"] == pytest.approx(0.9, abs=0.01)
