@@ -153,17 +153,22 @@ def test_a_shelf_shadow_in_front_of_a_wall_is_no_door(rays, exterior):
     assert ops == [], [o.attributes for o in ops]
 
 
-@pytest.mark.parametrize("rays", [True, False])
-def test_a_window_hole_with_points_beyond_is_a_window(rays):
-    """A 1.2 m x 1.4 m window (sill 0.9 m) in a 0.3 m exterior wall, glazing in the middle of
-    the thickness returning 5 % of the rays, a facade and the ground outside."""
-    hole = (1.5, 2.7, 0.9, 2.3)
+def _glazed_exterior_hole(hole, rays: bool):
+    """Openings found in a 0.3 m exterior wall with a ``hole`` (u0, u1, z0, z1) glazed in the
+    middle of the thickness (5 % of the rays return), a facade and the ground outside."""
     outside = [((-5.0, -6.2, 0.0), (L + 5.0, -6.0, 8.0)), ((-5.0, -6.0, -0.2), (L + 5.0, -T_EXT / 2, 0.0))]
     boxes = _room(T_EXT / 2, 4.0) + _holed_wall(T_EXT, hole) + outside
     walls = [_wall("w_ext", 0.0, 0.0, L, T_EXT, ("room_a", None), True)]
     xyz, idx, pos = _scan(boxes, [(1.0, 2.5, 1.5), (3.6, 1.8, 1.5)], glass=hole)
-    ops = detect_openings(walls, [STOREY], xyz, scan_index=idx if rays else None,
-                          scanner_positions=pos if rays else None, exterior_ids={0: "outside_0"})
+    return detect_openings(walls, [STOREY], xyz, scan_index=idx if rays else None,
+                           scanner_positions=pos if rays else None, exterior_ids={0: "outside_0"})
+
+
+@pytest.mark.parametrize("rays", [True, False])
+def test_a_window_hole_with_points_beyond_is_a_window(rays):
+    """A 1.2 m x 1.4 m window (sill 0.9 m) in a 0.3 m exterior wall, glazing in the middle of
+    the thickness returning 5 % of the rays, a facade and the ground outside."""
+    ops = _glazed_exterior_hole((1.5, 2.7, 0.9, 2.3), rays)
     assert len(ops) == 1, [o.attributes for o in ops]
     win = ops[0]
     a = win.attributes
@@ -181,13 +186,7 @@ def test_a_window_hole_with_points_beyond_is_a_window(rays):
 def test_a_tall_window_with_a_low_sill_is_a_window_not_a_door(rays, sill):
     """A 0.8 m wide window from a low sill (closer to the floor than floor_tolerance) to
     2.3 m: the sill's top inside the thickness, not the floor, is under the hole."""
-    hole = (1.5, 2.3, sill, 2.3)
-    outside = [((-5.0, -6.2, 0.0), (L + 5.0, -6.0, 8.0)), ((-5.0, -6.0, -0.2), (L + 5.0, -T_EXT / 2, 0.0))]
-    boxes = _room(T_EXT / 2, 4.0) + _holed_wall(T_EXT, hole) + outside
-    walls = [_wall("w_ext", 0.0, 0.0, L, T_EXT, ("room_a", None), True)]
-    xyz, idx, pos = _scan(boxes, [(1.0, 2.5, 1.5), (3.6, 1.8, 1.5)], glass=hole)
-    ops = detect_openings(walls, [STOREY], xyz, scan_index=idx if rays else None,
-                          scanner_positions=pos if rays else None, exterior_ids={0: "outside_0"})
+    ops = _glazed_exterior_hole((1.5, 2.3, sill, 2.3), rays)
     assert len(ops) == 1, [o.attributes for o in ops]
     a = ops[0].attributes
     assert ops[0].type == ShapeType.WINDOW and a["kind"] == "window"
