@@ -205,9 +205,9 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
         first = [w for st in per_storey.values() for w in st[0]]
         base_ext = base.with_(shapes=base.shapes + tuple(st[1] for st in per_storey.values()))
         detected = _detect(base_ext, first, xyz_model, cloud, prm)
-        # interior walls interrupted from floor to ceiling end there (an open plan, not an
-        # opening); exterior walls measured through their openings get that thickness
-        breaks, detected = _breaks(first, detected, prm)
+        # interior walls end at their doorless openings (an open plan, not a hole in a
+        # wall); exterior walls measured through their openings get that thickness
+        breaks, detected = _breaks(first, detected)
         measured = _measured_exteriors(first, detected, xyz_model, prm)
         # rooms farther apart than max_thickness: a thick wall where the gap is solid (empty
         # in the scan, and no opening into it seen through)
@@ -292,8 +292,9 @@ def _storey_walls(base: BuildingModel, k: int, spaces: list, fps: dict, prm: Ele
             if a != b and key not in seen:
                 seen.add(key)
                 relations.append(Relation("adjacency", key[0], key[1], w.id))
-    for a, b in sorted(open_pairs):
+    for a, b in sorted(open_pairs):  # no wall between them: neighbours, and walkable
         relations.append(Relation("adjacency", a, b))
+        relations.append(Relation("connectivity", a, b))
     return walls, ext, relations, (outline, spaces, fps)
 
 
@@ -335,19 +336,16 @@ class _SolidTest:
         return True
 
 
-def _breaks(walls: list[Shape], openings: list[Shape], prm: ElementsParams) -> tuple[dict, list]:
-    """({storey: [plan region]}, the other openings): doorless openings in interior walls
-    that reach from the floor to the ceiling. With no wall above them they are where the
-    wall ends, not holes in it; the region is the opening's footprint across the wall."""
+def _breaks(walls: list[Shape], openings: list[Shape]) -> tuple[dict, list]:
+    """({storey: [plan region]}, the other openings): the doorless openings of interior walls
+    (gaps from the floor up to the ceiling, or wider than a door: under a beam or a
+    bulkhead at most). The wall ends there and the two spaces meet without one; the region
+    is the opening's footprint across the wall."""
     by_id = {w.id: w for w in walls}
-    tol = prm.openings.ceiling_tolerance
     breaks, rest = {}, []
     for o in openings:
         w = by_id.get(o.parent)
-        a = o.attributes
-        if (w is None or w.attributes.get("external") or a.get("kind") != "opening"
-                or float(a.get("sill", 0.0)) > 1e-6
-                or float(a.get("sill", 0.0)) + float(a.get("height", 0.0)) < float(w.attributes["height"]) - tol):
+        if w is None or w.attributes.get("external") or o.attributes.get("kind") != "opening":
             rest.append(o)
             continue
         fp = o.geometry.footprint()
