@@ -193,10 +193,12 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
         if fps:
             footprints[k] = fps
     xyz_model = _model_points(model, cloud) if cloud is not None else None
-    solid = {}
-    if xyz_model is not None and not detect:  # no openings to tell a hole: the points alone
-        solid = {k: _SolidTest(xyz_model, by_storey[k], prm) for k in footprints}
-    per_storey = {k: _storey_walls(base, k, by_storey[k], fps, prm, old_ext.get(k, []), solid=solid.get(k))
+    scan = {k: _StoreyScan(xyz_model, by_storey[k], prm) for k in footprints} if xyz_model is not None else {}
+    # thick gaps wait for the openings when there are any to find (one seen through into a
+    # gap says it is no wall); without them the points alone decide
+    per_storey = {k: _storey_walls(base, k, by_storey[k], fps, prm, old_ext.get(k, []),
+                                   solid=scan[k].solid if k in scan and not detect else None,
+                                   faces=scan[k].faces if k in scan else None)
                   for k, fps in footprints.items()}
     if not detect:
         xyz_model = None
@@ -214,12 +216,12 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
         seen = [o for o in detected
                 if float((o.support or {}).get("seen_through", 0.0)) >= prm.openings.min_seen_through]
         for k in footprints:
-            solid[k] = _SolidTest(xyz_model, by_storey[k], prm, [o for o in seen if o.storey == k])
+            scan[k].openings = [Point(o.centroid[:2]) for o in seen if o.storey == k]
             per_storey[k] = _storey_walls(base, k, by_storey[k], footprints[k], prm, old_ext.get(k, []),
-                                          measured.get(k), breaks.get(k, ()), solid[k])
+                                          measured.get(k), breaks.get(k, ()), scan[k].solid, scan[k].faces)
         # openings found in the faces of a gap that is a solid wall now were none
-        detected = [o for o in detected if not any(r.contains(Point(o.centroid[:2]))
-                                                   for r in solid[o.storey].found if o.storey in solid)]
+        detected = [o for o in detected if o.storey not in scan
+                    or not any(r.contains(Point(o.centroid[:2])) for r in scan[o.storey].found)]
     for k, (st_walls, ext, rels, geo) in per_storey.items():
         new_shapes.extend(st_walls)
         walls.extend(st_walls)
@@ -267,9 +269,9 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
 
 
 def _storey_walls(base: BuildingModel, k: int, spaces: list, fps: dict, prm: ElementsParams, old_ext: list,
-                  measured=None, breaks=(), solid=None):
+                  measured=None, breaks=(), solid=None, faces=None):
     """One storey's wall shapes, exterior, relations and (outline, spaces, footprints)."""
-    runs, open_pairs = wall_runs(fps, k, prm.walls, measured, breaks, solid)
+    runs, open_pairs = wall_runs(fps, k, prm.walls, measured, breaks, solid, faces)
     z0 = min(float(s.bounds[0, 2]) for s in spaces)
     z1 = max(float(s.bounds[1, 2]) for s in spaces)
     ext_id = f"exterior_s{k}"
@@ -303,37 +305,90 @@ def _model_points(model: BuildingModel, cloud) -> np.ndarray:
     return cloud.xyz @ T[:3, :3].T + T[:3, 3]
 
 
-class _SolidTest:
-    """``solid(region) -> bool`` for one storey: at most ``solid_share`` of the region's
-    ``cell`` plan cells hold scan points between the storey's floor and ceiling (± 5 cm), and
-    no opening seen through (``openings``) lies in it or in its faces. ``found``: the regions
-    judged solid."""
+class _StoreyScan:
+    """What the scan says about the walls of one storey, from its points between the floor
+    and the ceiling (± 5 cm) in a plan grid.
 
-    def __init__(self, xyz: np.ndarray, spaces: list, prm: ElementsParams, openings=(), cell: float = 0.1):
-        z0 = min(float(s.bounds[0, 2]) for s in spaces) - 0.05
-        z1 = max(float(s.bounds[1, 2]) for s in spaces) + 0.05
-        self.pts = xyz[(xyz[:, 2] >= z0) & (xyz[:, 2] <= z1)]
+    ``solid(region)``: at most ``solid_share`` of the region's ``cell`` plan cells hold points,
+    and no opening seen through (``openings``, centres) lies in it or in its faces; ``found``
+    keeps the regions judged solid. ``faces(p, q, n)``: where two spaces touch along p–q, the
+    two faces of a wall seen there (mid-height points on two planes parallel to p–q within
+    ``face_search`` of it, each along ``face_coverage`` of it and over most of the height, apart
+    by ``min_seen_thickness`` or more, emptier between them) as (offset of the axis along n,
+    thickness), else None."""
+
+    def __init__(self, xyz: np.ndarray, spaces: list, prm: ElementsParams, cell: float = 0.1):
+        self.z0 = min(float(s.bounds[0, 2]) for s in spaces)
+        self.z1 = max(float(s.bounds[1, 2]) for s in spaces)
+        self.pts = xyz[(xyz[:, 2] >= self.z0 - 0.05) & (xyz[:, 2] <= self.z1 + 0.05)]
         self.grid = PointGrid(self.pts)
-        self.share, self.cell = prm.walls.solid_share, cell
+        self.prm, self.cell = prm.walls, cell
         self.reach = prm.walls.solid_margin + 0.1
-        self.openings = [Point(o.centroid[:2]) for o in openings]
+        self.openings = []
         self.found = []
 
-    def __call__(self, region) -> bool:
+    def _inside(self, region) -> np.ndarray:
+        x0, y0, x1, y1 = region.bounds
+        p = self.pts[self.grid.in_box(np.array([x0, y0]), np.array([x1, y1]))]
+        return p[shapely.contains_xy(region, p[:, 0], p[:, 1])]
+
+    def solid(self, region) -> bool:
         if region.area <= 0:
             return False
         near = region.buffer(self.reach, join_style="mitre")
         if any(near.contains(p) for p in self.openings):
             return False
-        x0, y0, x1, y1 = region.bounds
-        idx = self.grid.in_box(np.array([x0, y0]), np.array([x1, y1]))
-        p = self.pts[idx, :2]
-        p = p[shapely.contains_xy(region, p[:, 0], p[:, 1])]
+        p = self._inside(region)[:, :2]
         cells = len(np.unique(np.floor(p / self.cell).astype(np.int64), axis=0)) if len(p) else 0
-        if cells > self.share * max(region.area / self.cell ** 2, 1.0):
+        if cells > self.prm.solid_share * max(region.area / self.cell ** 2, 1.0):
             return False
         self.found.append(near)
         return True
+
+    def faces(self, p: np.ndarray, q: np.ndarray, n: np.ndarray) -> Optional[tuple]:
+        length = float(np.linalg.norm(q - p))
+        r = self.prm.face_search
+        if length < 4 * self.cell:
+            return None
+        d = (q - p) / length
+        pts = self._inside(Polygon([p - n * r, q - n * r, q + n * r, p + n * r]))
+        pts = pts[(pts[:, 2] > self.z0 + 0.3) & (pts[:, 2] < self.z1 - 0.3)]
+        rel = pts[:, :2] - p
+        u, v = rel @ d, rel @ n
+        keep = (u > 0.05) & (u < length - 0.05)
+        u, v = u[keep], v[keep]
+        if len(u) < 20:
+            return None
+        nu = max(1, int(length / self.cell))
+        iu = np.clip((u / self.cell).astype(np.int64), 0, nu - 1)
+        offsets = np.arange(-r + 0.015, r - 0.015 + 1e-9, 0.01)
+        near = [np.abs(v - c) <= 0.015 for c in offsets]  # points on a plane at each offset
+        count = np.array([m.sum() for m in near])
+        # the share of the stretch's cells it holds points in, and of the heights
+        cover = np.array([len(np.unique(iu[m])) / nu for m in near])
+        z = pts[keep, 2]
+        nz = max(1, int((self.z1 - self.z0 - 0.6) / self.cell))
+        high = np.array([len(np.unique(np.clip(((z[m] - self.z0 - 0.3) / self.cell).astype(np.int64), 0, nz - 1)))
+                         / nz for m in near])
+        last = len(offsets) - 1
+        # face planes: the densest offsets around, along the stretch and over most of the
+        # height (a wall's face, not a rail or a shelf)
+        peaks = [k for k in range(len(offsets)) if cover[k] >= self.prm.face_coverage and high[k] >= 0.6
+                 and count[k] >= count[max(k - 1, 0)] and count[k] >= count[min(k + 1, last)]]
+        best = None
+        for ia, a in enumerate(peaks):
+            for b in peaks[ia + 1:]:
+                t = float(offsets[b] - offsets[a])
+                if t < max(self.prm.min_thickness, self.prm.min_seen_thickness):
+                    continue
+                lo = min(count[a], count[b])
+                # a wall's inside: a dip between its faces (whatever the noise), no plane in it
+                # as dense as they are (a closed leaf in a doorway is far sparser)
+                if count[a + 1:b].min() > 0.2 * lo or any(a < k < b and count[k] >= 0.5 * lo for k in peaks):
+                    continue
+                if best is None or lo > best[0]:
+                    best = (lo, float(offsets[a] + offsets[b]) / 2, t)
+        return None if best is None else best[1:]
 
 
 def _breaks(walls: list[Shape], openings: list[Shape]) -> tuple[dict, list]:

@@ -36,87 +36,9 @@ from scipy import ndimage
 from ..errors import InputError
 from ..geometry.boxes import min_area_box
 from ..model import Polyhedron, Shape, ShapeType, Storey
-from ..quantities import Count, Factor, Metres, Ratio
+from .params import OpeningParams
 
 __all__ = ["OpeningParams", "detect_openings"]
-
-
-@dataclass(frozen=True)
-class OpeningParams:
-    """Thresholds of :func:`detect_openings` (SI units: metres, shares 0–1)."""
-
-    cell: Metres = 0.05
-    """Raster cell along the wall and in height, metres."""
-    reach: Metres = 1.0
-    """Points up to this far in front of / beyond a face are gathered for a wall; furniture
-    up to this far in front of a face shadows it, metres."""
-    grid: Metres = 0.5
-    """Cell of the 2-D grid that assigns points to walls, metres."""
-    face_search: Metres = 0.08
-    """A face is looked for this far around its nominal place (axis ± thickness/2), metres."""
-    face_sigmas: Factor = 2.5
-    """Face tolerance in units of the measured range noise σ."""
-    face_tolerance: tuple = (0.015, 0.06)
-    """Lower and upper bound of the face tolerance, metres."""
-    edge_band: Metres = 0.08
-    """Rows this close to the floor or ceiling are left out of the face rasters, metres."""
-    kernel_points: Factor = 6.0
-    """The presence kernel grows (15 → 55 cm) until it expects this many face points."""
-    presence_share: Ratio = 0.25
-    """A face cell is present when its kernel holds at least one point and this share of
-    the kernel's usual count around it (the local face density)."""
-    density_window: Metres = 1.0
-    """Side of the window of the local face density, metres."""
-    unobserved_run: Metres = 4.0
-    """A face without points (and no rays through it) over a longer stretch is unobserved
-    there, metres."""
-    rect_share: Ratio = 0.55
-    """Rows / columns of a gap's bounding box less empty than this are cut off."""
-    merge_gap: Metres = 0.2
-    """Gaps this close along the wall, overlapping in height, are one gap, metres."""
-    min_door_width: Metres = 0.6
-    """Narrower gaps reaching the floor are not doors, metres."""
-    max_door_width: Metres = 2.0
-    """Wider gaps reaching the floor are doorless openings, metres."""
-    min_door_height: Metres = 1.7
-    """Lower gaps reaching the floor are not doors, metres."""
-    max_opening_width: Metres = 8.0
-    """Wider gaps are not openings, metres."""
-    min_window_width: Metres = 0.3
-    """Narrower gaps above the floor are not windows, metres."""
-    min_window_height: Metres = 0.3
-    """Lower gaps above the floor are not windows, metres."""
-    floor_tolerance: Metres = 0.2
-    """A gap starting this close to the floor reaches the floor, metres."""
-    min_sill: Metres = 0.05
-    """A floor-reaching gap whose bottom inside the thickness (the material under the hole:
-    the floor through a doorway, a sill's top under a window) lies this far above the floor
-    or more is a window with that sill, not a door, metres."""
-    ceiling_tolerance: Metres = 0.15
-    """A gap ending this close to the ceiling reaches the ceiling, metres."""
-    min_seen_through: Ratio = 0.15
-    """Share of a gap's cells crossed by scanner rays that makes it seen through."""
-    max_occluded: Ratio = 0.4
-    """Share of a gap's cells shadowed by points in front (and not seen through) that makes
-    it an occlusion."""
-    max_front_cover: Ratio = 0.3
-    """Without scanner positions: share of a gap covered by points in front of the face
-    that makes it an occlusion."""
-    min_scan_points: Count = 30
-    """A scanner sees a face (and takes part in its ray test) when it measured this many
-    points on it (fewer, down to 5, for a scanner with fewer than 200 × as many points)."""
-    edge_search: Metres = 0.35
-    """A gap's edges are looked for this far beyond its empty cells, metres."""
-    cue_share: Ratio = 0.3
-    """Share of a door's width with floor points inside the thickness for the full cue."""
-    reveal_share: Ratio = 0.5
-    """Share of a gap's edges (jambs, head, sill) with reveal points for the full cue."""
-    min_confidence: Ratio = 0.3
-    """Gaps with less confidence are dropped."""
-    leaf_depth: tuple = (0.02, 0.10)
-    """A closed door leaf stands this far behind a face (inside the thickness), metres."""
-    leaf_share: Ratio = 0.5
-    """Share of a closed door's cells that must hold leaf points."""
 
 
 # ----------------------------------------------------------------------------- wall frames
@@ -135,6 +57,7 @@ class _Wall:
     external: bool
     sides: tuple
     faces: np.ndarray = None  # (2,) v of the left and right face, metres
+    top: float = math.inf     # the wall's own top (its rooms' ceiling; ≤ ceiling_z), metres
 
 
 def _storey_of(shape: Shape, storeys: Sequence[Storey]) -> tuple[float, float]:
@@ -167,8 +90,14 @@ def _frame(shape: Shape, storeys: Sequence[Storey]) -> _Wall:
         raise InputError(f"wall {shape.id!r}: axis_line has zero length")
     d = (axis[1] - axis[0]) / length
     sides = (tuple(a.get("sides") or ()) + (None, None))[:2]
-    return _Wall(shape, axis[0], d, np.array([-d[1], d[0]]), length, thick, *_storey_of(shape, storeys),
-                 bool(a.get("external", False)), sides)
+    z0, z1 = _storey_of(shape, storeys)
+    try:  # the wall's own top (its rooms' ceiling) where it has one, else its storey's
+        top = float(a.get("ceiling_z", z1))
+    except (TypeError, ValueError):
+        raise InputError(f"wall {shape.id!r}: ceiling_z must be a number") from None
+    top = top if math.isfinite(top) and z0 < top <= z1 else z1
+    return _Wall(shape, axis[0], d, np.array([-d[1], d[0]]), length, thick, z0, z1,
+                 bool(a.get("external", False)), sides, top=top)
 
 
 def _bucket(xyz: np.ndarray, walls: list[_Wall], reach: float, cell: float) -> list[np.ndarray]:
@@ -614,7 +543,7 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     if floor_reach:
         if not p.min_door_width <= width <= p.max_opening_width:
             return None
-        if ceil_reach or width > p.max_door_width:
+        if ceil_reach or width > p.max_door_width or min(w.top, z1) - et <= p.ceiling_tolerance:
             return el, er, z0, et, "opening"
         return (el, er, z0, et, "door") if et - z0 >= p.min_door_height else None
     if ceil_reach or not p.min_window_width <= width <= p.max_opening_width or et - eb < p.min_window_height:

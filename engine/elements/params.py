@@ -4,10 +4,87 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..quantities import Flag, Metres, Radians, Ratio
-from .openings import OpeningParams
+from ..quantities import Count, Factor, Flag, Metres, Radians, Ratio
 
-__all__ = ["WallRunParams", "SlabParams", "ElementsParams"]
+__all__ = ["OpeningParams", "WallRunParams", "SlabParams", "ElementsParams"]
+
+
+@dataclass(frozen=True)
+class OpeningParams:
+    """Thresholds of :func:`detect_openings` (SI units: metres, shares 0–1)."""
+
+    cell: Metres = 0.05
+    """Raster cell along the wall and in height, metres."""
+    reach: Metres = 1.0
+    """Points up to this far in front of / beyond a face are gathered for a wall; furniture
+    up to this far in front of a face shadows it, metres."""
+    grid: Metres = 0.5
+    """Cell of the 2-D grid that assigns points to walls, metres."""
+    face_search: Metres = 0.08
+    """A face is looked for this far around its nominal place (axis ± thickness/2), metres."""
+    face_sigmas: Factor = 2.5
+    """Face tolerance in units of the measured range noise σ."""
+    face_tolerance: tuple = (0.015, 0.06)
+    """Lower and upper bound of the face tolerance, metres."""
+    edge_band: Metres = 0.08
+    """Rows this close to the floor or ceiling are left out of the face rasters, metres."""
+    kernel_points: Factor = 6.0
+    """The presence kernel grows (15 → 55 cm) until it expects this many face points."""
+    presence_share: Ratio = 0.25
+    """A face cell is present when its kernel holds at least one point and this share of
+    the kernel's usual count around it (the local face density)."""
+    density_window: Metres = 1.0
+    """Side of the window of the local face density, metres."""
+    unobserved_run: Metres = 4.0
+    """A face without points (and no rays through it) over a longer stretch is unobserved
+    there, metres."""
+    rect_share: Ratio = 0.55
+    """Rows / columns of a gap's bounding box less empty than this are cut off."""
+    merge_gap: Metres = 0.2
+    """Gaps this close along the wall, overlapping in height, are one gap, metres."""
+    min_door_width: Metres = 0.6
+    """Narrower gaps reaching the floor are not doors, metres."""
+    max_door_width: Metres = 2.0
+    """Wider gaps reaching the floor are doorless openings, metres."""
+    min_door_height: Metres = 1.7
+    """Lower gaps reaching the floor are not doors, metres."""
+    max_opening_width: Metres = 8.0
+    """Wider gaps are not openings, metres."""
+    min_window_width: Metres = 0.3
+    """Narrower gaps above the floor are not windows, metres."""
+    min_window_height: Metres = 0.3
+    """Lower gaps above the floor are not windows, metres."""
+    floor_tolerance: Metres = 0.2
+    """A gap starting this close to the floor reaches the floor, metres."""
+    min_sill: Metres = 0.05
+    """A floor-reaching gap whose bottom inside the thickness (the material under the hole:
+    the floor through a doorway, a sill's top under a window) lies this far above the floor
+    or more is a window with that sill, not a door, metres."""
+    ceiling_tolerance: Metres = 0.15
+    """A gap ending this close to the ceiling reaches the ceiling, metres."""
+    min_seen_through: Ratio = 0.15
+    """Share of a gap's cells crossed by scanner rays that makes it seen through."""
+    max_occluded: Ratio = 0.4
+    """Share of a gap's cells shadowed by points in front (and not seen through) that makes
+    it an occlusion."""
+    max_front_cover: Ratio = 0.3
+    """Without scanner positions: share of a gap covered by points in front of the face
+    that makes it an occlusion."""
+    min_scan_points: Count = 30
+    """A scanner sees a face (and takes part in its ray test) when it measured this many
+    points on it (fewer, down to 5, for a scanner with fewer than 200 × as many points)."""
+    edge_search: Metres = 0.35
+    """A gap's edges are looked for this far beyond its empty cells, metres."""
+    cue_share: Ratio = 0.3
+    """Share of a door's width with floor points inside the thickness for the full cue."""
+    reveal_share: Ratio = 0.5
+    """Share of a gap's edges (jambs, head, sill) with reveal points for the full cue."""
+    min_confidence: Ratio = 0.3
+    """Gaps with less confidence are dropped."""
+    leaf_depth: tuple = (0.02, 0.10)
+    """A closed door leaf stands this far behind a face (inside the thickness), metres."""
+    leaf_share: Ratio = 0.5
+    """Share of a closed door's cells that must hold leaf points."""
 
 
 @dataclass(frozen=True)
@@ -27,6 +104,14 @@ class WallRunParams:
     solid_share: Ratio = 0.35
     """A gap is solid when at most this share of its 10 cm plan cells (away from the faces)
     hold points (a doorway through a thick wall holds some)."""
+    face_search: Metres = 0.3
+    """With a scan: where two spaces touch (their split cut through a wall), the wall's faces
+    are looked for this far either side of the line they share, metres."""
+    face_coverage: Ratio = 0.4
+    """A face plane there holds mid-height points along at least this share of the line."""
+    min_seen_thickness: Metres = 0.07
+    """The two faces of such a wall are at least this far apart (a stud partition with its
+    boards; closer planes are a panel, a leaf or a rail), metres."""
     min_thickness: Metres = 0.03
     """Facing room faces closer than this meet without a wall (an open plan), metres."""
     exterior_thickness: Metres = 0.3

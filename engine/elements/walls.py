@@ -49,6 +49,7 @@ class _Piece:
     left: Optional[str]    # space on the left of a→b
     right: Optional[str]
     measured: bool
+    seen: bool = False     # a wall seen in the scan where two spaces touch
 
 
 @dataclass
@@ -142,6 +143,13 @@ def _subtract(intervals, lo, hi):
     return [(a, b) for a, b in out if b > a]
 
 
+def _rect(pc: _Piece) -> np.ndarray:
+    """(4, 2) footprint of a piece: its axis widened to its thickness."""
+    d = (pc.b - pc.a) / max(float(np.linalg.norm(pc.b - pc.a)), 1e-12)
+    n = np.array([-d[1], d[0]]) * pc.thickness / 2
+    return np.array([pc.a - n, pc.b - n, pc.b + n, pc.a + n])
+
+
 def _split_at_breaks(piece: _Piece, breaks, prm: WallRunParams) -> list:
     """The parts of an interior piece outside the break regions (plan polygons)."""
     line = LineString([piece.a, piece.b])
@@ -159,15 +167,17 @@ def _split_at_breaks(piece: _Piece, breaks, prm: WallRunParams) -> list:
         return [piece]
     d = (piece.b - piece.a) / max(length, 1e-12)
     return [_Piece(piece.a + d * u0, piece.a + d * u1, piece.thickness, piece.external, piece.left, piece.right,
-                   piece.measured) for u0, u1 in _subtract(cut, 0.0, length) if u1 - u0 >= prm.min_length]
+                   piece.measured, piece.seen) for u0, u1 in _subtract(cut, 0.0, length) if u1 - u0 >= prm.min_length]
 
 
-def _pieces(footprints: dict, prm: WallRunParams, measured=None, breaks=(), solid=None):
+def _pieces(footprints: dict, prm: WallRunParams, measured=None, breaks=(), solid=None, faces=None):
     """Interior and exterior wall pieces and the open-plan pairs of one storey; ``measured``
     [(region, thickness)]: exterior pieces whose default axis lies in a region get its thickness;
     ``breaks`` [region]: interior pieces stop there and their two spaces meet without a wall;
     ``solid(region) -> bool``: whether a gap wider than ``max_thickness`` (up to
-    ``max_solid_thickness``) is solid in the scan, so a thick wall."""
+    ``max_solid_thickness``) is solid in the scan, so a thick wall; ``faces(p, q, n)``: the
+    wall the scan shows along the stretch p–q where two spaces touch, as (offset of its axis
+    along n, thickness), or None (they meet without a wall)."""
     P, Q, owner = _edges(footprints, prm.simplify)
     m = len(P)
     if m == 0:
@@ -204,16 +214,33 @@ def _pieces(footprints: dict, prm: WallRunParams, measured=None, breaks=(), soli
         v_a, v_b = float(D[j] @ (P[i] + D[i] * u0 - P[j])), float(D[j] @ (P[i] + D[i] * u1 - P[j]))
         covered[i].append((u0, u1))
         covered[j].append((min(v_a, v_b), max(v_a, v_b)))
+        seen = None
         if s < prm.min_thickness:
-            open_pairs.add(tuple(sorted((owner[i], owner[j]))))
-            continue
-        off = N[i] * (s / 2)
+            seen = faces(P[i] + D[i] * u0, P[i] + D[i] * u1, N[i]) if faces is not None else None
+            if seen is None:
+                open_pairs.add(tuple(sorted((owner[i], owner[j]))))
+                continue
+            c, s = seen  # the spaces meet on a wall the scan shows: its faces give it
+            off = N[i] * c
+        else:
+            off = N[i] * (s / 2)
         a, b = P[i] + D[i] * u0 + off, P[i] + D[i] * u1 + off
-        piece = _Piece(a, b, s, False, owner[i], owner[j], True)
+        piece = _Piece(a, b, s, False, owner[i], owner[j], True, seen=seen is not None)
         parts = _split_at_breaks(piece, breaks, prm) if breaks else [piece]
         if len(parts) != 1 or parts[0] is not piece:
             open_pairs.add(tuple(sorted((owner[i], owner[j]))))
         pieces.extend(parts)
+    # a wall seen where two spaces touch that lies along another wall piece is that wall
+    if any(pc.seen for pc in pieces):
+        plain = [Polygon(_rect(pc)).buffer(0.05, join_style="mitre") for pc in pieces if not pc.seen]
+        keep = []
+        for pc in pieces:
+            if pc.seen and plain:
+                own = Polygon(_rect(pc))
+                if sum(own.intersection(q).area for q in plain) >= 0.5 * own.area:
+                    continue
+            keep.append(pc)
+        pieces = keep
     # thicker gaps, nearest first, where the edges are not yet paired: a wall when solid
     for s, i, j, u0, u1 in sorted(thick):
         free = _subtract(covered[i], u0, u1)
@@ -426,18 +453,20 @@ def _join(runs: list, prm: WallRunParams) -> None:
 
 
 def wall_runs(footprints: dict, storey: int, prm: WallRunParams = WallRunParams(), measured=None, breaks=(),
-              solid=None):
+              solid=None, faces=None):
     """Wall runs of one storey from its spaces' footprints (``{space id: shapely geometry}``);
     ``measured``: [(shapely region, thickness m)] of exterior walls measured in the scan;
     ``breaks``: [shapely region] where an interior wall is interrupted (a gap from floor to
     ceiling seen in the scan): the wall stops there and the two spaces meet without one;
     ``solid(region) -> bool``: whether the scan holds (almost) no points in a plan region,
-    so that rooms up to ``max_solid_thickness`` apart have a thick wall between them.
+    so that rooms up to ``max_solid_thickness`` apart have a thick wall between them;
+    ``faces(p, q, n) -> (offset, thickness) | None``: a wall seen in the scan where two spaces
+    touch along p–q (their split cut through a wall: it stays a wall).
 
     Returns ``(runs, open_pairs)``: the runs (joined, ends met) and the pairs of spaces that
     meet without a wall.
     """
-    pieces, open_pairs = _pieces(footprints, prm, measured, breaks, solid)
+    pieces, open_pairs = _pieces(footprints, prm, measured, breaks, solid, faces)
     runs = [r for r in _runs_of(pieces, storey, prm, breaks) if r.length >= prm.min_length]
     _join(runs, prm)
     # meeting ends can shorten a run below the minimum: drop it, and the joins to it
