@@ -240,3 +240,37 @@ def test_a_thick_wall_needs_an_empty_gap_in_the_scan(floor_in_gap):
         assert inner == []
     else:
         assert len(inner) == 1 and inner[0].attributes["thickness"] == pytest.approx(0.9, abs=0.01)
+
+
+def _touching_cloud(wall: bool, rail: bool = False):
+    """Two rooms that touch along x = 5 (the method's split cut through the wall between
+    them). ``wall``: its faces at x = 4.97 and 5.10 (a 13 cm partition the rooms overlap);
+    ``rail``: instead, two 1 m high planes there (a rail, a low cabinet)."""
+    from engine.pointcloud import PointCloud
+
+    rng = np.random.default_rng(1)
+    floor = rng.uniform([0, 0, 0], [10, 6, 0], (40_000, 3))
+    parts = [floor]
+    if wall or rail:
+        top = 2.8 if wall else 1.0
+        parts += [np.column_stack([np.full(5000, x), rng.uniform(0, 6, 5000), rng.uniform(0, top, 5000)])
+                  for x in (4.97, 5.10)]
+    xyz = np.vstack(parts)
+    return PointCloud(xyz=xyz + rng.normal(0, 0.005, xyz.shape))
+
+
+@pytest.mark.parametrize("case", ["wall", "open", "rail"])
+def test_rooms_touching_on_a_wall_seen_in_the_scan_keep_the_wall(case):
+    m = _model([_rect(0, 0, 5, 6), _rect(5, 0, 10, 6)])
+    out = building_elements(m, _touching_cloud(case == "wall", case == "rail"), params=NO_SCAN)
+    inner = [w for w in out.walls if not w.attributes["external"]]
+    rel = {(r.kind, r.a, r.b, r.via) for r in out.relations}
+    if case == "wall":
+        assert len(inner) == 1
+        w = inner[0]
+        assert w.attributes["thickness"] == pytest.approx(0.13, abs=0.02)
+        assert float(np.mean(np.asarray(w.attributes["axis_line"])[:, 0])) == pytest.approx(5.035, abs=0.015)
+        assert ("connectivity", "room0", "room1", None) not in rel
+    else:  # nothing there, or no wall's height: an open plan
+        assert inner == []
+        assert ("connectivity", "room0", "room1", None) in rel
