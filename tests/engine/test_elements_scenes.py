@@ -67,3 +67,62 @@ def test_the_ifc_of_a_reconstruction_is_a_building_model(results, tmp_path):
     logger = ifcopenshell.validate.json_logger()
     ifcopenshell.validate.validate(f, logger, express_rules=True)
     assert [s for s in logger.statements if s.get("level") == "error"] == []
+
+
+# ----------------------------------------------------------------------------- IFC-built scenes
+def _ifc_run(results, name, noise, seed=3):
+    """FZK-Haus or the Duplex scanned (seed 3: not used while tuning), reconstructed, scored."""
+    from engine.synthetic.ifcscene import ifc_scene
+
+    key = ("ifc", name, noise, seed)
+    if key not in results:
+        sc = ifc_scene(name, seed=seed, noise=noise, target_points=300_000)
+        m = reconstruct(sc.cloud, "auto", rng=0)
+        results[key] = (sc, m, evaluate_elements(m, sc.truth))
+    return results[key]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("noise", ["tls", "mobile"])
+def test_fzk_haus_has_no_false_door_and_its_walls(results, noise):
+    """Measured on seed 3: doors P 1.00 / R 0.80 (the front door is a closed leaf flush with
+    the inner face: nothing to see), windows F1 1.00 (TLS) / 0.90 (mobile), 13 walls for 13
+    true runs. Before the open-plan rule the passage under the beam was a 3.6 m 'door'."""
+    sc, m, r = _ifc_run(results, "fzk_haus", noise)
+    assert r["doors"]["precision"] >= 0.95 and r["doors"]["recall"] >= 0.75, r["doors"]
+    assert r["windows"]["f1"] >= 0.85, r["windows"]
+    assert r["walls"]["truth_runs"] / 1.5 <= r["walls"]["model"] <= 1.5 * r["walls"]["truth_runs"], r["walls"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("noise", ["tls", "mobile"])
+def test_duplex_party_wall_is_one_wall_without_openings(results, noise):
+    """Measured on seed 3: doors P 0.75 / R 0.86 (TLS), 0.92 / 0.86 (mobile); before: 0.43 /
+    0.71 and 0.69 / 0.79, with 4-5 m 'openings' along the party wall into the other flat.
+    The party wall between the flats is an interior wall (both sides rooms) and holds no
+    opening."""
+    sc, m, r = _ifc_run(results, "duplex", noise)
+    assert r["doors"]["precision"] >= 0.65 and r["doors"]["recall"] >= 0.75, r["doors"]
+    from engine.evaluation.elements import _in_truth_frame, _plan
+
+    from shapely.geometry import Point
+
+    mt = _in_truth_frame(m, sc.truth)
+    # the party wall of level 2 (level 1's party walls are stair and closet walls)
+    party = [w for w in sc.truth.walls if "Party" in (w.name or "") and _plan(w, sc.truth).area > 5.0]
+    assert len(party) == 1
+    core, (z0, z1) = _plan(party[0], sc.truth).buffer(-0.1), party[0].bounds[:, 2]
+    for o in mt.doors + mt.windows:
+        c = o.centroid
+        assert not (z0 < c[2] < z1 and core.contains(Point(c[0], c[1]))), (o.id, o.attributes.get("kind"), c)
+    from shapely.ops import unary_union
+
+    on = [w for w in mt.walls if z0 < w.centroid[2] < z1 and _plan(w, mt).intersection(core).area > 0]
+
+    def share(walls):
+        return unary_union([_plan(w, mt) for w in walls]).intersection(core).area / core.area
+
+    # modelled along its length as interior walls (seed 3: 0.92 TLS, the stair core breaks
+    # it; 1.00 mobile, where a 0.9 m exterior stub at the stair core overlaps it: 0.05)
+    assert share([w for w in on if not w.attributes["external"]]) >= 0.8
+    assert share([w for w in on if w.attributes["external"]]) <= 0.15
