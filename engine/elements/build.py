@@ -454,13 +454,14 @@ def _rehome(openings: list[Shape], walls: list[Shape], model: BuildingModel) -> 
     """Openings kept from before, each rebuilt in the new wall that holds its centre (its
     box across the new wall's thickness, at its width, sill and height)."""
     out = []
+    plans = {w.id: Polygon(w.footprint()) for w in walls} if openings else {}  # once, not per opening
     for o in openings:
         c = o.centroid
         best = None
         for w in walls:
             if w.storey != o.storey:
                 continue
-            d = Polygon(w.footprint()).distance(Point(c[:2]))
+            d = plans[w.id].distance(Point(c[:2]))
             if best is None or d < best[0]:
                 best = (d, w)
         if best is None or best[0] > 0.3:
