@@ -458,6 +458,41 @@ def _gap_rects(dd: _Data, p: OpeningParams) -> tuple[list, list]:
     return out, obs
 
 
+def _split_by_bottom(dd: _Data, rect, p: OpeningParams) -> list:
+    """A gap whose bottom is the floor over one stretch and a sill over the next (a door
+    beside a window, one hole between their frames) → the two rectangles, the door's
+    reaching down to the floor rows; else the gap as it is. Columns (the gap's and
+    ``edge_search`` beyond, where its edges are measured) are told by what lies under the
+    hole inside the thickness (``bottom``, floor points); each stretch must span a door's or
+    a window's width of such columns, one stretch each. The parts come in order along the
+    wall."""
+    c0, c1, r0, r1 = rect
+    c = p.cell
+    ext = int(round(p.edge_search / c))
+    a, b = max(0, c0 - ext), min(len(dd.bottom), c1 + ext)
+    bottom, floor = dd.bottom[a:b], dd.floor[a:b]
+    low = (floor > 0) | (np.isfinite(bottom) & (bottom < p.min_sill))
+    high = np.isfinite(bottom) & (bottom >= p.min_sill) & (floor == 0)
+    known = np.flatnonzero(low | high)
+    if len(known) < 4 or not low.any() or not high.any():
+        return [rect]
+    seq = high[known]  # labels in column order: one change from floor to sill (or back)
+    change = np.flatnonzero(seq[1:] != seq[:-1])
+    if len(change) != 1:
+        return [rect]
+    i = int(change[0])
+    k = a + int(known[i] + known[i + 1] + 1) // 2  # the cut, between the last of one and the first of the other
+    lows, highs = a + np.flatnonzero(low), a + np.flatnonzero(high)
+    if ((lows.max() - lows.min() + 1) * c < p.min_door_width or (highs.max() - highs.min() + 1) * c < p.min_window_width
+            or not c0 < k < c1):
+        return [rect]
+    r_floor = int(math.ceil(p.edge_band / c))
+    left, right = (c0, k, r0, r1), (k, c1, r0, r1)  # in order along the wall
+    if seq[0]:  # the sill first: the door is on the right
+        return [left, (k, c1, min(r0, r_floor), r1)]
+    return [(c0, k, min(r0, r_floor), r1), right]
+
+
 def _inner_faces(obs, c0: int, c1: int, outer: list) -> list:
     """The faces (0 left, 1 right) observed over most of columns c0..c1, outer faces left out."""
     return [s for s in (0, 1) if s not in outer and obs[s][c0:c1].mean() > 0.5]
@@ -746,9 +781,16 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
         rects, obs = _gap_rects(dd, p)
         found: list[dict] = []
         for rect, mode in sorted(rects, key=lambda r: r[1] != "both"):
-            o = _judge(w, dd, rect, mode, obs, tol, p)
-            if o is not None and not any(_overlap(o, f) for f in found):
-                found.append(o)
+            parts = _split_by_bottom(dd, rect, p) if mode == "both" else [rect]
+            judged = [_judge(w, dd, part, mode, obs, tol, p) for part in parts]
+            if len(parts) == 2 and all(judged):  # no face between them: they meet at the cut
+                cut = parts[0][1] * p.cell
+                for o, side in zip(judged, ("u1", "u0")):
+                    o[side] = min(o["u1"], cut) if side == "u1" else max(o["u0"], cut)
+                    o["width"] = o["u1"] - o["u0"]
+            for o in judged:
+                if o is not None and o["width"] > 0 and not any(_overlap(o, f) for f in found):
+                    found.append(o)
         ext = exterior_ids.get(w.shape.storey, f"exterior_s{w.shape.storey}")
         for j, o in enumerate(sorted(found, key=lambda f: f["u0"])):
             tag = "window" if o["kind"] == "window" else "door"

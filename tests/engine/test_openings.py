@@ -194,6 +194,29 @@ def test_a_tall_window_with_a_low_sill_is_a_window_not_a_door(rays, sill):
     assert abs(a["width"] - 0.8) <= 0.05
 
 
+@pytest.mark.parametrize("rays", [True, False])
+def test_a_door_beside_a_window_in_one_hole_is_a_door_and_a_window(rays):
+    """A glazed door (u 1.0-1.9, from the floor) beside a window (u 1.96-4.0, sill 0.3 m), both
+    to 2.3 m, only a thin mullion inside the thickness between them: the faces show one hole;
+    what lies under it (the floor, a sill's top) tells the door from the window."""
+    t = T_EXT
+    outside = [((-5.0, -6.2, 0.0), (L + 5.0, -6.0, 8.0)), ((-5.0, -6.0, -0.2), (L + 5.0, -t / 2, 0.0))]
+    wall = [((0, -t / 2, 0), (1.0, t / 2, H)), ((4.0, -t / 2, 0), (L, t / 2, H)),
+            ((1.0, -t / 2, 2.3), (4.0, t / 2, H)), ((1.96, -t / 2, 0), (4.0, t / 2, 0.3)),
+            ((1.9, -0.05, 0.0), (1.96, 0.05, 2.3))]
+    boxes = _room(t / 2, 4.0) + wall + outside
+    walls = [_wall("w_ext", 0.0, 0.0, L, t, ("room_a", None), True)]
+    xyz, idx, pos = _scan(boxes, [(1.0, 2.5, 1.5), (3.6, 1.8, 1.5)], glass=(1.96, 4.0, 0.3, 2.3))
+    ops = detect_openings(walls, [STOREY], xyz, scan_index=idx if rays else None,
+                          scanner_positions=pos if rays else None, exterior_ids={0: "outside_0"})
+    kinds = sorted((o.attributes["kind"], round(o.attributes["width"], 2), round(o.attributes["sill"], 2)) for o in ops)
+    assert [k[0] for k in kinds] == ["door", "window"], kinds
+    door = next(o for o in ops if o.attributes["kind"] == "door")
+    win = next(o for o in ops if o.attributes["kind"] == "window")
+    assert abs(door.attributes["width"] - 0.9) <= 0.1 and abs(_centre_u(door) - 1.45) <= 0.1, kinds
+    assert abs(win.attributes["width"] - 2.04) <= 0.1 and abs(win.attributes["sill"] - 0.3) <= 0.05, kinds
+
+
 def test_a_closed_door_is_a_recessed_leaf_in_a_door_sized_gap():
     """A 4 cm leaf whose face is 3 cm behind room_a's wall face (8 cm behind room_b's)."""
     leaf = ((DOOR[0], T_INT / 2 - 0.07, 0.0), (DOOR[1], T_INT / 2 - 0.03, DOOR[3]))
