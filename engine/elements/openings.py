@@ -37,6 +37,7 @@ from ..errors import InputError
 from ..geometry.boxes import min_area_box
 from ..model import Polyhedron, Shape, ShapeType, Storey
 from .params import OpeningParams
+from .sills import low_quantile, split_by_bottom
 
 __all__ = ["OpeningParams", "detect_openings"]
 
@@ -306,7 +307,7 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, 
     return _Data(face=np.stack([raster(on[0]), raster(on[1])]),
                  inside=raster(inside & core & inz),
                  floor=np.bincount(iu[inside & low], minlength=nu).astype(np.float64),
-                 bottom=_low_quantile(iu, z - w.floor_z, inside & (z > w.floor_z - p.edge_band)
+                 bottom=low_quantile(iu, z - w.floor_z, inside & (z > w.floor_z - p.edge_band)
                                       & (z < w.floor_z + 0.4), nu),
                  low_face=np.bincount(iu[((np.abs(v - vl) < t) | (np.abs(v - vr) < t)) & vertical
                                          & (z > w.floor_z + 0.03) & (z <= w.floor_z + p.edge_band)],
@@ -317,21 +318,6 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, 
                  fu=u[either], fz=z[either], scans=scans,
                  fcls=np.where(on[0], 0, np.where(on[1], 1, 2))[either].astype(np.int8),
                  fdev=np.where(on[0], np.abs(v - vl), np.where(on[1], np.abs(v - vr), 0.0))[either])
-
-
-def _low_quantile(col: np.ndarray, h: np.ndarray, mask: np.ndarray, n: int, q: float = 0.2) -> np.ndarray:
-    """Per column (0..n-1), the ``q`` quantile of ``h`` over the masked points; NaN where
-    a column has none (one sort, linear after it)."""
-    out = np.full(n, np.nan)
-    c, v = col[mask], h[mask]
-    if not len(c):
-        return out
-    order = np.lexsort((v, c))
-    c, v = c[order], v[order]
-    starts = np.flatnonzero(np.r_[True, c[1:] != c[:-1]])
-    counts = np.diff(np.r_[starts, len(c)])
-    out[c[starts]] = v[starts + np.floor(q * (counts - 1)).astype(np.int64)]
-    return out
 
 
 def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, tol: float,
@@ -456,41 +442,6 @@ def _gap_rects(dd: _Data, p: OpeningParams) -> tuple[list, list]:
             single = empty[s] & obs[s][:, None] & ~empty[1 - s]
             out += [((a, b, r0 + r_lo, r1 + r_lo), s) for a, b, r0, r1 in _components(single, p)]
     return out, obs
-
-
-def _split_by_bottom(dd: _Data, rect, p: OpeningParams) -> list:
-    """A gap whose bottom is the floor over one stretch and a sill over the next (a door
-    beside a window, one hole between their frames) → the two rectangles, the door's
-    reaching down to the floor rows; else the gap as it is. Columns (the gap's and
-    ``edge_search`` beyond, where its edges are measured) are told by what lies under the
-    hole inside the thickness (``bottom``, floor points); each stretch must span a door's or
-    a window's width of such columns, one stretch each. The parts come in order along the
-    wall."""
-    c0, c1, r0, r1 = rect
-    c = p.cell
-    ext = int(round(p.edge_search / c))
-    a, b = max(0, c0 - ext), min(len(dd.bottom), c1 + ext)
-    bottom, floor = dd.bottom[a:b], dd.floor[a:b]
-    low = (floor > 0) | (np.isfinite(bottom) & (bottom < p.min_sill))
-    high = np.isfinite(bottom) & (bottom >= p.min_sill) & (floor == 0)
-    known = np.flatnonzero(low | high)
-    if len(known) < 4 or not low.any() or not high.any():
-        return [rect]
-    seq = high[known]  # labels in column order: one change from floor to sill (or back)
-    change = np.flatnonzero(seq[1:] != seq[:-1])
-    if len(change) != 1:
-        return [rect]
-    i = int(change[0])
-    k = a + int(known[i] + known[i + 1] + 1) // 2  # the cut, between the last of one and the first of the other
-    lows, highs = a + np.flatnonzero(low), a + np.flatnonzero(high)
-    if ((lows.max() - lows.min() + 1) * c < p.min_door_width or (highs.max() - highs.min() + 1) * c < p.min_window_width
-            or not c0 < k < c1):
-        return [rect]
-    r_floor = int(math.ceil(p.edge_band / c))
-    left, right = (c0, k, r0, r1), (k, c1, r0, r1)  # in order along the wall
-    if seq[0]:  # the sill first: the door is on the right
-        return [left, (k, c1, min(r0, r_floor), r1)]
-    return [(c0, k, min(r0, r_floor), r1), right]
 
 
 def _inner_faces(obs, c0: int, c1: int, outer: list) -> list:
@@ -781,7 +732,7 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
         rects, obs = _gap_rects(dd, p)
         found: list[dict] = []
         for rect, mode in sorted(rects, key=lambda r: r[1] != "both"):
-            parts = _split_by_bottom(dd, rect, p) if mode == "both" else [rect]
+            parts = split_by_bottom(dd, rect, p) if mode == "both" else [rect]
             judged = [_judge(w, dd, part, mode, obs, tol, p) for part in parts]
             if len(parts) == 2 and all(judged):  # no face between them: they meet at the cut
                 cut = parts[0][1] * p.cell

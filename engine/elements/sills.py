@@ -1,0 +1,65 @@
+"""What lies under a hole in a wall, column by column (docs/method.md §7.3): the floor through
+a doorway, a sill's top under a window. :mod:`.openings` reads it to tell a tall window from a
+door and to cut a door standing beside a window in one hole."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .params import OpeningParams
+
+__all__ = ["low_quantile", "split_by_bottom"]
+
+
+def low_quantile(col: np.ndarray, h: np.ndarray, mask: np.ndarray, n: int, q: float = 0.2) -> np.ndarray:
+    """Per column (0..n-1), the ``q`` quantile of ``h`` over the masked points; NaN where
+    a column has none (one sort, linear after it)."""
+    out = np.full(n, np.nan)
+    c, v = col[mask], h[mask]
+    if not len(c):
+        return out
+    order = np.lexsort((v, c))
+    c, v = c[order], v[order]
+    starts = np.flatnonzero(np.r_[True, c[1:] != c[:-1]])
+    counts = np.diff(np.r_[starts, len(c)])
+    out[c[starts]] = v[starts + np.floor(q * (counts - 1)).astype(np.int64)]
+    return out
+
+
+def split_by_bottom(dd, rect, p: OpeningParams) -> list:
+    """A gap (``rect``: columns c0..c1, rows r0..r1 of a wall's rasters ``dd``) whose bottom
+    is the floor over one stretch and a sill over the next (a door beside a window, one hole
+    between their frames) → the two rectangles, the door's reaching down to the floor rows;
+    else the gap as it is. Columns (the gap's and
+    ``edge_search`` beyond, where its edges are measured) are told by what lies under the
+    hole inside the thickness (``bottom``, floor points); each stretch must span a door's or
+    a window's width of such columns, one stretch each. The parts come in order along the
+    wall."""
+    c0, c1, r0, r1 = rect
+    c = p.cell
+    if r0 * c > 2.5 * p.floor_tolerance or r1 * c < p.min_door_height:  # no door's height down to near the floor
+        return [rect]
+    ext = int(round(p.edge_search / c))
+    a, b = max(0, c0 - ext), min(len(dd.bottom), c1 + ext)
+    bottom, floor = dd.bottom[a:b], dd.floor[a:b]
+    low = (floor > 0) | (np.isfinite(bottom) & (bottom < p.min_sill))
+    high = np.isfinite(bottom) & (bottom >= p.min_sill) & (floor == 0)
+    known = np.flatnonzero(low | high)
+    if len(known) < 4 or not low.any() or not high.any():
+        return [rect]
+    seq = high[known]  # labels in column order: one change from floor to sill (or back)
+    change = np.flatnonzero(seq[1:] != seq[:-1])
+    if len(change) != 1:
+        return [rect]
+    i = int(change[0])
+    k = a + int(known[i] + known[i + 1] + 1) // 2  # the cut, between the last of one and the first of the other
+    lows, highs = a + np.flatnonzero(low), a + np.flatnonzero(high)
+    if ((lows.max() - lows.min() + 1) * c < p.min_door_width or (highs.max() - highs.min() + 1) * c < p.min_window_width
+            or not c0 < k < c1):
+        return [rect]
+    r_floor = int(math.ceil(p.edge_band / c))
+    left, right = (c0, k, r0, r1), (k, c1, r0, r1)  # in order along the wall
+    if seq[0]:  # the sill first: the door is on the right
+        return [left, (k, c1, min(r0, r_floor), r1)]
+    return [(c0, k, min(r0, r_floor), r1), right]
