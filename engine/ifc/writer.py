@@ -25,7 +25,8 @@ edits:
   one-sided boundaries for walls and slabs touching a space (see
   :class:`engine.ifc.writer_geometry.BoundaryWriter`);
 * base quantities (``Qto_*BaseQuantities``), the property sets ``Indoor_Provenance``
-  (project), ``Indoor_Shape`` and ``Indoor_Support`` (products), ``Indoor_Storey``;
+  (project), ``Indoor_Shape`` (``Confidence`` 0–1 where the shape has one: rooms seen only
+  partly, detected openings) and ``Indoor_Support`` (products), ``Indoor_Storey``;
 * colours by type (surface styles).
 
 Geometry is written in the model's original frame: the site placement carries
@@ -116,6 +117,12 @@ class IfcWriteParams:
 
 
 # --------------------------------------------------------------------------- public API
+def _confidence(v) -> Optional[float]:
+    """A shape's confidence attribute clipped to 0–1; None when it has none."""
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and bool(np.isfinite(v))
+    return min(max(float(v), 0.0), 1.0) if ok else None
+
+
 def write_ifc(model: BuildingModel, path: str | os.PathLike, *, schema: str = "IFC4",
               params: Optional[IfcWriteParams] = None, progress=None, should_stop=None) -> str:
     """Write ``model`` as an IFC file at ``path`` (temporary name, then moved into place).
@@ -508,6 +515,7 @@ class _Writer(BoundaryWriter):
             "Grid": None if s.grid is None else dumps(s.grid),
             "Attributes": dumps(s.attributes) if s.attributes else None,
             "Log": "\n".join(s.log) if s.log else None,
+            "Confidence": _confidence(s.attributes.get("confidence")),  # 0-1, for schedules and filters
         })
         if s.support:
             self._pset(e, PSET_SUPPORT, {k: float(v) for k, v in s.support.items()})

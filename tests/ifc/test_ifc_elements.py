@@ -349,3 +349,19 @@ def test_synthetic_office_truth_validates_with_express_rules(tmp_path):
     fillings = [b for b in f.by_type("IfcRelSpaceBoundary")
                 if b.RelatedBuildingElement.is_a("IfcDoor") or b.RelatedBuildingElement.is_a("IfcWindow")]
     assert fillings and all(b.ParentBoundary is not None and b.CorrespondingBoundary is not None for b in fillings)
+
+
+def test_confidence_is_a_property_of_detected_openings_and_partly_seen_rooms(tmp_path):
+    """Indoor_Shape.Confidence (0-1) where a shape has a confidence; none where it has not."""
+    from engine.model import ShapeType
+
+    room = Shape("r", ShapeType.INTERIOR, Polyhedron.box((0, 0, 0), (4, 4, 2.8)), name="Room", terminal=True,
+                 attributes={"confidence": 0.75, "ceiling_seen": 0.5})
+    other = Shape("o", ShapeType.INTERIOR, Polyhedron.box((4.2, 0, 0), (8, 4, 2.8)), name="Other", terminal=True)
+    m = BuildingModel(shapes=(room, other), storeys=(Storey(0, 0.0, 2.8, "Ground"),))
+    path = str(tmp_path / "c.ifc")
+    write_ifc(m, path)
+    f = ifcopenshell.open(path)
+    conf = {e.Name: ue.get_psets(e).get("Indoor_Shape", {}).get("Confidence")
+            for e in f.by_type("IfcSpace")}
+    assert conf["Room"] == pytest.approx(0.75) and conf["Other"] is None
