@@ -320,14 +320,17 @@ class _StoreyScan:
     def __init__(self, xyz: np.ndarray, spaces: list, prm: ElementsParams, cell: float = 0.1):
         self.z0 = min(float(s.bounds[0, 2]) for s in spaces)
         self.z1 = max(float(s.bounds[1, 2]) for s in spaces)
-        self.pts = xyz[(xyz[:, 2] >= self.z0 - 0.05) & (xyz[:, 2] <= self.z1 + 0.05)]
-        self.grid = PointGrid(self.pts)
+        self.xyz, self.grid = xyz, None  # the storey's points are gridded when first asked for
         self.prm, self.cell = prm.walls, cell
         self.reach = prm.walls.solid_margin + 0.1
         self.openings = []
         self.found = []
 
     def _inside(self, region) -> np.ndarray:
+        if self.grid is None:
+            z = self.xyz[:, 2]
+            self.pts = self.xyz[(z >= self.z0 - 0.05) & (z <= self.z1 + 0.05)]
+            self.grid = PointGrid(self.pts)
         x0, y0, x1, y1 = region.bounds
         p = self.pts[self.grid.in_box(np.array([x0, y0]), np.array([x1, y1]))]
         return p[shapely.contains_xy(region, p[:, 0], p[:, 1])]
