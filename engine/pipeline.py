@@ -17,6 +17,7 @@ from typing import Optional
 import numpy as np
 
 from .errors import ReconstructionError
+from .geometry.kdtree import kdtree
 from .geometry.spacing import estimate_spacing
 from .model import Storey
 from .pointcloud import PointCloud
@@ -71,6 +72,8 @@ class Prepared:
     alignment : AlignmentResult or None.
     timings : dict of str → seconds.
     cleaning : dict — input points, and the non-finite and stray points (far clusters) removed.
+    tree : a k-d tree of ``cloud.xyz`` (:func:`engine.geometry.kdtree.kdtree`) when a stage
+        built one (the spacing, the full cloud's normals), shared with the later ones; or None.
     """
 
     cloud: PointCloud
@@ -87,6 +90,12 @@ class Prepared:
     timings: dict = field(default_factory=dict)
     cleaning: dict = field(default_factory=dict)
     params: PreprocessParams = field(default_factory=PreprocessParams)
+    tree: Optional[object] = None
+
+    def cloud_tree(self):
+        """The k-d tree of ``cloud.xyz``, built on first use (see ``tree``); return it and
+        keep it with ``replace(prep, tree=...)`` to share it."""
+        return self.tree if self.tree is not None else kdtree(self.cloud.xyz)
 
     def representative(self) -> np.ndarray:
         """(n,) int64: for every point of ``cloud``, the index of its working point (its
@@ -98,9 +107,7 @@ class Prepared:
             return voxel_of
         if self.voxel <= 0 and len(self.working_index) == len(self.cloud):
             return np.arange(len(self.cloud), dtype=np.int64)
-        from scipy.spatial import cKDTree
-
-        _, nn = cKDTree(self.working.xyz).query(self.cloud.xyz, k=1, workers=thread_cap())
+        _, nn = kdtree(self.working.xyz).query(self.cloud.xyz, k=1, workers=thread_cap())
         return nn.astype(np.int64)
 
     def to_full(self, values: np.ndarray) -> np.ndarray:
@@ -179,14 +186,15 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
         log.info("%s: %d points in %d far clusters removed", cloud.source or "cloud", (~keep).sum(), groups)
         full = full.subset(keep)
     t["strays"] = time.perf_counter() - t0
-    spacing = None  # only the Manhattan grammar reads it
+    spacing = tree = None  # only the Manhattan grammar reads them
     if full_normals:  # the working cloud then shares them
         t1 = time.perf_counter()
-        spacing = estimate_spacing(full.xyz)
+        tree = kdtree(full.xyz)  # shared by the spacing, the normals' fallback and the noise
+        spacing = estimate_spacing(full.xyz, tree=tree)
         t["spacing"] = time.perf_counter() - t1
         t1 = time.perf_counter()
         p(0.0, "normals")
-        full = full_cloud_normals(full, params, spacing)
+        full = full_cloud_normals(full, params, spacing, tree=tree)
         t["normals_full"] = time.perf_counter() - t1
     t1 = time.perf_counter()
     work, index, voxel = clean(full, params.clean)
@@ -218,7 +226,7 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
              len(cloud), len(work), len(storeys), len(found_planes), {k: round(v, 2) for k, v in t.items()})
     return Prepared(cloud=full, working=work, working_index=index, voxel=voxel, spacing=spacing, labels=labels,
                     storeys=storeys, storeys_found=found, planes=found_planes, timings=t, cleaning=cleaning,
-                    params=params)
+                    params=params, tree=tree)
 
 
 def align(prep: Prepared, *, rng=0, cloud: Optional[PointCloud] = None) -> Prepared:
@@ -258,15 +266,16 @@ def cap_points(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[
 
 
 def full_cloud_normals(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
-                       spacing: Optional[float] = None) -> PointCloud:
+                       spacing: Optional[float] = None, tree=None) -> PointCloud:
     """``cloud`` with PCA normals of every point (the Manhattan grammar reads them), over at
     least ``normals.radius_spacings`` point spacings (far walls of a terrestrial scan are
-    sparse); unchanged when it has normals."""
+    sparse); unchanged when it has normals. ``tree``: a k-d tree of ``cloud.xyz`` to share."""
     if cloud.normals is not None:
         return cloud
     npar = params.normals
-    spacing = estimate_spacing(cloud.xyz) if spacing is None else spacing
-    return estimate_normals(cloud, replace(npar, radius=max(npar.radius, npar.radius_spacings * spacing)))
+    spacing = estimate_spacing(cloud.xyz, tree=tree) if spacing is None else spacing
+    return estimate_normals(cloud, replace(npar, radius=max(npar.radius, npar.radius_spacings * spacing)),
+                            tree=tree)
 
 
 def manhattan_score(planes, angle_tolerance: float = ChoiceParams.angle_tolerance) -> float:

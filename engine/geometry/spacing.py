@@ -2,13 +2,13 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
+from .kdtree import kdtree
 
 __all__ = ["estimate_spacing"]
 
 
 def estimate_spacing(xyz: np.ndarray, sample: int = 20000, radius: float = 0.1, percentile: float = 10.0,
-                     rng=0) -> float:
+                     rng=0, tree=None) -> float:
     """Surface point spacing σ = 1/sqrt(ρ), ρ a low percentile of the local surface density.
 
     Parameters
@@ -20,6 +20,7 @@ def estimate_spacing(xyz: np.ndarray, sample: int = 20000, radius: float = 0.1, 
         the scanner than on the far walls; taking the sparsest tenth (10) makes σ the
         spacing of the far surfaces, so that they can still reach τ (IPoF counts one
         point per σ × σ cell, so a denser patch cannot score above 1).
+    tree : a k-d tree of ``xyz`` (:func:`engine.geometry.kdtree.kdtree`) to share, or None.
 
     Returns σ in metres (0.0 for fewer than two points). This is density-based rather
     than nearest-neighbour based: for random sampling the nearest-neighbour distance is
@@ -29,7 +30,7 @@ def estimate_spacing(xyz: np.ndarray, sample: int = 20000, radius: float = 0.1, 
     xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
     if len(xyz) < 2:
         return 0.0
-    tree = cKDTree(xyz)
+    tree = kdtree(xyz) if tree is None else tree
     q = xyz if len(xyz) <= sample else xyz[rng.choice(len(xyz), sample, replace=False)]
     r = radius
     for _ in range(4):  # widen the ball until it holds enough neighbours to count on

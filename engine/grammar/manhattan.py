@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from typing import Optional, Sequence
 
 import numpy as np
@@ -57,7 +57,7 @@ from ..progress import Progress
 from ..segmentation.params import PreprocessParams
 from .geometry import box_of
 from .ipof import grid_face_index
-from .params import ManhattanParams, params_from_data
+from .params import ManhattanParams, estimate_noise, params_from_data
 from .place import StoreyFrame, detect_levels, histogram_peaks, storey_chunks, storey_frame
 from .rules import classify, derive_topology, reject_implausible_spaces
 
@@ -67,6 +67,9 @@ log = logging.getLogger(__name__)
 
 
 # --------------------------------------------------------------------------- rule 1: place
+_SORT_PLANES = 24
+"""IPoF of the faces on more planes than this along one axis: the points are sorted along it
+once and each plane's slab taken by bisection; fewer: each slab is a scan of the points."""
 _FAR_POINTS = 200
 """The largest gap between the outermost this many ceiling points along an axis is the
 step between its scan lines at its far end (how much farther beyond its last point than
@@ -95,11 +98,10 @@ def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyF
     if len(q) == 0:
         return False
     o = 1 - axis
-    lift = 3.0 * float(params.noise or 0.0)  # stay clear of the (noisy) ceiling itself
     if ceiling_cells is None:
         ceiling_cells = [None] * len(frame.ceilings)
-    for c, cells in zip(frame.ceilings, ceiling_cells):
-        band = (q[:, 2] >= c - lift - params.wall_top_band) & (q[:, 2] <= c - lift)
+    for (lo, hi), cells in zip(_top_bands(frame, params), ceiling_cells):
+        band = (q[:, 2] >= lo) & (q[:, 2] <= hi)
         if cells is not None and band.any():
             # only under (or next to) that ceiling: a shelf in a high room must not reach
             # the ceiling level of a low room elsewhere
@@ -112,6 +114,14 @@ def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyF
         if np.unique(np.floor(q[band, o] / spacing)).size * spacing >= params.min_wall_top_length:
             return True
     return False
+
+
+def _top_bands(frame: StoreyFrame, params: ManhattanParams) -> list[tuple[float, float]]:
+    """Per ceiling level, the z band (lo, hi) in which a wall must have points to reach it
+    (:func:`_reaches_ceiling`): ``wall_top_band`` high, ``3 σ_noise`` under the level (clear
+    of the noisy ceiling itself)."""
+    lift = 3.0 * float(params.noise or 0.0)
+    return [(c - lift - params.wall_top_band, c - lift) for c in frame.ceilings]
 
 
 def _or_void(cells, xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, params: ManhattanParams):
@@ -134,14 +144,14 @@ def _or_void(cells, xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, pa
     return lambda k: cells(k) | (above(k) & ~floor(k))
 
 
-def _seen_extent(xy: np.ndarray, axis: int, cell: float) -> tuple[float, float]:
-    """Seen extent of the main ceiling along one axis, metres.
+def _seen_extent(xy: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """Seen extent of the main ceiling along x and y, metres: (lo (2,), hi (2,)).
 
     ``xy`` : (n, 2) float64 horizontal coordinates of the ceiling's points, metres. The
     points are binned into ``cell`` × ``cell`` cells (``level_cell``); the largest
     8-connected group of occupied cells is the ceiling (stray patches seen through
     windows are not, so no percentile is needed), and the outer edges of its outermost
-    cells along ``axis`` give the extent. Cells, not points: a terrestrial scan
+    cells along each axis give the extent. Cells, not points: a terrestrial scan
     is far denser near the scanner, so a point percentile would cut off the sparsely seen
     far end of a ceiling.
     """
@@ -156,8 +166,8 @@ def _seen_extent(xy: np.ndarray, axis: int, cell: float) -> tuple[float, float]:
     if n > 1:
         sizes = np.bincount(lab.ravel())[1:]
         grid = lab == (int(np.argmax(sizes)) + 1)
-    idx = np.argwhere(grid)[:, axis] + c0[axis]
-    return float(idx.min() * cell), float((idx.max() + 1) * cell)
+    idx = np.argwhere(grid) + c0
+    return idx.min(axis=0) * cell, (idx.max(axis=0) + 1) * cell
 
 
 def _closing_wall(edge: float, side: int, weak, reach: float) -> float:
@@ -192,11 +202,13 @@ def _ceiling_mask(p: np.ndarray, hor: np.ndarray, level: float, frame: StoreyFra
     k = np.floor(p[cand, :2] / params.level_cell).astype(np.int64)
     k -= k.min(axis=0)
     key = k[:, 0] * (int(k[:, 1].max()) + 1) + k[:, 1]
-    uk, inv = np.unique(key, return_inverse=True)
-    top = np.full(len(uk), -np.inf)
     z = p[cand, 2]
-    np.maximum.at(top, inv.reshape(-1), z)
-    zt = top[inv.reshape(-1)]
+    order = np.argsort(key)  # the highest point of each cell (reduceat: ufunc.at is slow)
+    first = np.ones(len(key), dtype=bool)
+    first[1:] = key[order][1:] != key[order][:-1]
+    top = np.maximum.reduceat(z[order], np.flatnonzero(first))
+    zt = np.empty_like(z)
+    zt[order] = top[np.cumsum(first) - 1]
     ok = (z >= zt - d) & (zt >= level - params.wall_top_band) & (zt <= level + d)
     m[np.flatnonzero(cand)[ok]] = True
     return m
@@ -240,7 +252,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     cos_t = np.cos(params.normal_angle)
     zc = frame.cuts
     inz = (xyz[:, 2] >= zc[0] - d) & (xyz[:, 2] <= zc[-1] + d)
-    p, n = xyz[inz], np.abs(normals[inz])
+    p, n = (xyz, np.abs(normals)) if inz.all() else (xyz[inz], np.abs(normals[inz]))
     along = [n[:, a] >= cos_t for a in range(3)]
 
     # place: peaks of x (points facing x) and y (points facing y) → intervals
@@ -253,6 +265,10 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
         o, sel = 1 - a, along[a]
         raw.append(histogram_peaks(p[sel, a], np.column_stack([p[sel, o], p[sel, 2]]), params, spacing,
                                    params.min_wall_area))
+    top_band = np.zeros(len(p), dtype=bool)  # the only points _reaches_ceiling reads
+    for lo, hi in _top_bands(frame, params):
+        top_band |= (p[:, 2] >= lo) & (p[:, 2] <= hi)
+    extents = {}  # seen extents of the top ceiling, both axes
     cuts = []
     for a in (0, 1):
         o = 1 - a
@@ -264,7 +280,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             j = np.clip(np.searchsorted(other, p[:, o]), 1, max(len(other) - 1, 1))
             dist = np.minimum(np.abs(p[:, o] - other[j - 1]), np.abs(p[:, o] - other[np.minimum(j, len(other) - 1)]))
             off = dist > d
-        cand = p[off & ~along[o]]
+        cand = p[off & ~along[o] & top_band]
         order = np.argsort(cand[:, a], kind="stable")
         cand = cand[order]
         peaks = [pk.position for pk in raw[a]
@@ -279,7 +295,9 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             if int(sel.sum()) < 10:
                 continue
             if first:
-                lo_e, hi_e = _seen_extent(p[sel, :2], a, params.level_cell)
+                if not extents:
+                    extents["lo"], extents["hi"] = _seen_extent(p[sel, :2], params.level_cell)
+                lo_e, hi_e = float(extents["lo"][a]), float(extents["hi"][a])
             else:
                 lo_e, hi_e = np.percentile(p[sel, a], [params.extent_percentile, 100 - params.extent_percentile])
             if weak is None:  # sparsely seen surfaces facing a that reach a ceiling
@@ -296,7 +314,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                 # seen extent reach on, and a weak wall there closes it
                 # (within the wall thickness plus the step between its scan lines there:
                 # the largest gap among its outermost points, at most another thickness)
-                o0, o1 = _seen_extent(p[sel, :2], o, params.level_cell)
+                o0, o1 = float(extents["lo"][o]), float(extents["hi"][o])
                 q = np.sort(p[sel][(p[sel, o] >= o0) & (p[sel, o] <= o1), a])
                 k = min(_FAR_POINTS, len(q))
                 if lo_w == lo_e and q[0] < lo_e - t_max:
@@ -323,22 +341,29 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
 
     # point-on-face index of every face of the grid, plane by plane
     margin = 2.0 * float(params.noise or 0.0)
-    def faces_on(axis, planes, u_edges, v_edges, ucol, vcol):
-        out = []
-        sel = along[axis]
+    def faces_on(axis, planes, u_edges, v_edges, ucol, vcol, skip=()):
+        out = np.zeros((len(planes), len(u_edges) - 1, len(v_edges) - 1))
+        sel = np.flatnonzero(along[axis])
         t = p[sel, axis]
-        order = np.argsort(t)
-        ts = t[order]
-        uv = np.column_stack([p[sel, ucol], p[sel, vcol]])[order]
-        for w in planes:
-            i0, i1 = np.searchsorted(ts, [w - d, w + d])
-            out.append(grid_face_index(uv[i0:i1], u_edges, v_edges, spacing, margin))
-        return np.array(out)
+        todo = [q for q in range(len(planes)) if q not in skip]
+        if len(todo) > _SORT_PLANES:  # many planes: one sort, then bisection
+            order = np.argsort(t)
+            t, sel = t[order], sel[order]
+        for q in todo:
+            w = planes[q]
+            if len(todo) > _SORT_PLANES:
+                i0, i1 = np.searchsorted(t, [w - d, w + d])
+                on = sel[i0:i1]
+            else:  # a few planes: a scan of the points each costs less than the sort
+                on = sel[np.abs(t - w) <= d]
+            out[q] = grid_face_index(p[on][:, (ucol, vcol)], u_edges, v_edges, spacing, margin)
+        return out
 
     FX = faces_on(0, X, Y, Z, 1, 2)  # (nx+1, ny, nz)
     FY = faces_on(1, Y, X, Z, 0, 2)  # (ny+1, nx, nz)
-    FZ = faces_on(2, Z, X, Y, 0, 1)  # (nz+1, nx, ny)
-    for q, m in enumerate(on_ceiling):  # a ceiling face: the points on that ceiling
+    # a ceiling's face: the points on that ceiling (below), not every horizontal point near it
+    FZ = faces_on(2, Z, X, Y, 0, 1, skip=range(1, len(on_ceiling) + 1))  # (nz+1, nx, ny)
+    for q, m in enumerate(on_ceiling):
         FZ[q + 1] = grid_face_index(p[m][:, :2], X, Y, spacing, margin)
 
     # classify, top-down so that "top touches an interior shape" is known
@@ -633,13 +658,17 @@ def manhattan_model(prep: Prepared, params: Optional[ManhattanParams] = None, *,
     t0 = time.perf_counter()
     seed = int(rng.integers(2**31))
     p(0.0, "Manhattan alignment")
-    spacing = prep.spacing if prep.spacing is not None else estimate_spacing(prep.cloud.xyz)
-    prep = align(prep, rng=seed, cloud=full_cloud_normals(prep.cloud, prep.params, spacing))
+    base = params or ManhattanParams()
+    tree = prep.cloud_tree()  # one k-d tree of the full cloud: spacing, normals' fallback, noise
+    spacing = prep.spacing if prep.spacing is not None else estimate_spacing(prep.cloud.xyz, tree=tree)
+    prep = align(replace(prep, tree=tree), rng=seed, cloud=full_cloud_normals(prep.cloud, prep.params, spacing,
+                                                                              tree=tree))
     aligned = prep.cloud.transformed(np.linalg.inv(prep.transform))  # with normals (align)
     storeys = prep.storeys if prep.storeys_found else None
-    base = params or ManhattanParams()
     if base.spacing is None:
         base = base.with_(spacing=spacing)  # measured once
+    if base.noise is None:  # rotation-free: the input frame's tree serves (params_from_data's sample)
+        base = base.with_(noise=estimate_noise(prep.cloud.xyz, rng=seed, tree=tree))
     params = base if base.complete else params_from_data(aligned.xyz, base, rng=seed)
     t_pre = time.perf_counter() - t0
     p.check()

@@ -293,21 +293,23 @@ class ManhattanParams:
         return replace(self, **changes)
 
 
-def estimate_noise(xyz: np.ndarray, sample: int = 5000, k: int = 20, rng=0) -> float:
+def estimate_noise(xyz: np.ndarray, sample: int = 5000, k: int = 20, rng=0, tree=None) -> float:
     """Surface noise σ_noise: median of the smallest PCA standard deviation over k
-    neighbours (metres). On a plane this is the scatter across the surface."""
+    neighbours (metres). On a plane this is the scatter across the surface. ``tree``: a k-d
+    tree of ``xyz`` (:func:`engine.geometry.kdtree.kdtree`) to share, or None. A rigid motion
+    of ``xyz`` leaves σ_noise unchanged (the tree of the unmoved points serves)."""
     rng = np.random.default_rng(rng)
     xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
     if len(xyz) <= k:
         return 0.0
-    from scipy.spatial import cKDTree
+    from ..geometry.kdtree import kdtree
 
-    tree = cKDTree(xyz)
+    tree = kdtree(xyz) if tree is None else tree
     q = xyz if len(xyz) <= sample else xyz[rng.choice(len(xyz), sample, replace=False)]
     _, idx = tree.query(q, k=k)
     nb = xyz[idx]  # (m, k, 3)
     c = nb - nb.mean(axis=1, keepdims=True)
-    cov = np.einsum("mki,mkj->mij", c, c) / k
+    cov = np.matmul(c.transpose(0, 2, 1), c) / k
     ev = np.linalg.eigvalsh(cov)[:, 0]
     return float(np.sqrt(np.median(np.maximum(ev, 0))))
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import EmptyCloudError, MissingDependencyError
+from ..geometry.kdtree import kdtree
 from ..geometry.normals import knn_normals
 from ..pointcloud import PointCloud
 from ..progress import Progress
@@ -147,7 +147,7 @@ def remove_statistical_outliers(cloud: PointCloud, neighbors: int, std_ratio: fl
     n = len(cloud)
     if n <= neighbors + 1:
         return cloud, np.ones(n, bool)
-    d, _ = cKDTree(cloud.xyz).query(cloud.xyz, k=neighbors + 1, workers=thread_cap())
+    d, _ = kdtree(cloud.xyz).query(cloud.xyz, k=neighbors + 1, workers=thread_cap())
     md = d[:, 1:].mean(axis=1)
     keep = md <= md.mean() + std_ratio * md.std()
     return (cloud if keep.all() else cloud.subset(keep)), keep
@@ -212,7 +212,7 @@ def _o3d():
 
 
 def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *, progress=None,
-                     should_stop=None) -> PointCloud:
+                     should_stop=None, tree=None) -> PointCloud:
     """PCA normals over a hybrid radius / k-nearest neighbourhood (open3d).
 
     Parameters
@@ -220,6 +220,8 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     cloud : PointCloud
         (n, 3) float64 metres. Downsample first for large clouds (see :func:`clean`).
     params : NormalParams
+    tree : a k-d tree of ``cloud.xyz`` (:func:`engine.geometry.kdtree.kdtree`) for the
+        fallback below, or None (one is built when a point needs it).
 
     Returns
     -------
@@ -249,7 +251,7 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     bad = (~np.isfinite(nrm).all(axis=1) | (np.linalg.norm(nrm, axis=1) < 0.5)
            | ((nrm[:, 0] == 0.0) & (nrm[:, 1] == 0.0)))
     if bad.any():  # too few neighbours within the radius (sparse, far from the scanner)
-        nrm[bad] = knn_normals(cloud.xyz, params.fallback_knn, np.nonzero(bad)[0])
+        nrm[bad] = knn_normals(cloud.xyz, params.fallback_knn, np.nonzero(bad)[0], tree=tree)
     if params.orient_to_scanner:
         s = _scanner_of_points(cloud)
         if s is not None:
