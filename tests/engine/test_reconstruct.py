@@ -43,6 +43,21 @@ def test_manhattan_share_is_rotation_invariant():
     assert manhattan_score(preprocess(cloud.transformed(m), rng=0).planes) >= AUTO_THRESHOLD + 0.05
 
 
+@pytest.mark.parametrize("degrees", [0.0, 30.0, 44.75, 60.25])
+def test_manhattan_share_of_walls_in_one_direction_bin(degrees):
+    """Every wall in one 0.5° bin (a clean scene at 30°): the smoothed histogram is a plateau,
+    and its first maximum once lay 3.25° from the walls, so the share was 0 (the 70 m floor
+    rotated by 30° went to the generic method)."""
+    from types import SimpleNamespace
+
+    a = np.radians(degrees)
+    walls = [SimpleNamespace(kind="wall", normal=(np.cos(a + k * np.pi / 2), np.sin(a + k * np.pi / 2), 0.0),
+                             area=10.0 + k) for k in range(4)]
+    walls.append(SimpleNamespace(kind="wall", normal=(np.cos(a + 0.6), np.sin(a + 0.6), 0.0), area=6.0))
+    floor = SimpleNamespace(kind="floor", normal=(0.0, 0.0, 1.0), area=100.0)
+    assert manhattan_score(walls + [floor]) == pytest.approx(46.0 / 52.0)
+
+
 def test_real_room_scan_is_manhattan(data_dir):
     from engine.io import read_point_cloud
 
