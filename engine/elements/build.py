@@ -24,6 +24,7 @@ from shapely.ops import unary_union
 from ..geometry.polygon import polygon_parts
 from ..model import BuildingModel, Polyhedron, Relation, Shape, ShapeType
 from .params import ElementsParams, SlabParams
+from .egress import elevated_doors
 from .thickness import PointGrid, reveal_depth
 from .walls import WallRun, space_footprint, wall_runs
 
@@ -206,11 +207,13 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
     if xyz_model is not None:
         first = [w for st in per_storey.values() for w in st[0]]
         base_ext = base.with_(shapes=base.shapes + tuple(st[1] for st in per_storey.values()))
-        detected = _detect(base_ext, first, xyz_model, cloud, prm)
+        grid = PointGrid(xyz_model)
+        # exterior "doors" of an upper storey with nothing walkable beyond are windows
+        detected = elevated_doors(_detect(base_ext, first, xyz_model, cloud, prm), first, grid, prm.openings)
         # interior walls end at their doorless openings (an open plan, not a hole in a
         # wall); exterior walls measured through their openings get that thickness
         breaks, detected = _breaks(first, detected)
-        measured = _measured_exteriors(first, detected, xyz_model, prm)
+        measured = _measured_exteriors(first, detected, grid, prm)
         # rooms farther apart than max_thickness: a thick wall where the gap is solid (empty
         # in the scan, and no opening into it seen through)
         seen = [o for o in detected
@@ -412,7 +415,7 @@ def _breaks(walls: list[Shape], openings: list[Shape]) -> tuple[dict, list]:
     return breaks, rest
 
 
-def _measured_exteriors(walls: list[Shape], openings: list[Shape], xyz: np.ndarray, prm: ElementsParams) -> dict:
+def _measured_exteriors(walls: list[Shape], openings: list[Shape], grid: PointGrid, prm: ElementsParams) -> dict:
     """{storey: [(region, thickness)]}: exterior walls whose openings' reveals give a thickness
     other than the default (by more than 2 cm); the region is the wall's footprint."""
     by_wall = {}
@@ -421,7 +424,6 @@ def _measured_exteriors(walls: list[Shape], openings: list[Shape], xyz: np.ndarr
     ext = [w for w in walls if w.attributes.get("external") and w.id in by_wall]
     if not ext:
         return {}
-    grid = PointGrid(xyz)
     out = {}
     for w in ext:
         left, right = w.attributes["sides"]

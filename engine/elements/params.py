@@ -85,6 +85,19 @@ class OpeningParams:
     """A closed door leaf stands this far behind a face (inside the thickness), metres."""
     leaf_share: Ratio = 0.5
     """Share of a closed door's cells that must hold leaf points."""
+    egress_depth: Metres = 1.2
+    """An open exterior door leads onto ground, a terrace or a balcony: scan points at about
+    its floor's level (``egress_band``) within this distance beyond the wall, metres."""
+    egress_band: tuple = (-0.45, 0.25)
+    """Levels (metres, from the storey's floor) that count as walkable beyond a door: a few
+    steps down to a step up."""
+    elevated_drop: Metres = 1.0
+    """An open exterior "door" with nothing walkable beyond it, through which the scan sees
+    points this far below its floor or more (the ground under an upper storey), is a
+    window down to the floor (a French window without a balcony), metres."""
+    min_elevated_points: Count = 5
+    """Points that far below (within 2 m of the opening along the wall) needed to call an
+    opening elevated (a narrow one seen through at a glance shows a few)."""
 
 
 @dataclass(frozen=True)

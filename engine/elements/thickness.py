@@ -3,7 +3,10 @@
 From inside, an exterior wall shows only its inner face; its outer face is seen only through
 its openings, as their reveals: the jambs, the sill and the head of a window or an open door
 run from the inner face to the outer face. The depth of the reveal points behind the inner
-face is the wall's thickness there.
+face is the wall's thickness there. Glazing stops most rays: where a pane fills the opening,
+the reveal seen in full ends at the pane, and only its sparse part seen through the pane
+reaches the outer face; without that part the thickness is not measured (a reveal that ends
+at the pane is the frame's depth, not the wall's).
 
 Points are bucketed once in a plan grid (``cell``); each opening reads only the cells its
 reveal region touches, so the cost is n (one sort) plus the points near openings.
@@ -82,7 +85,7 @@ def reveal_depth(wall: Shape, openings: Sequence[Shape], grid: PointGrid, inner_
     n = np.array([-d[1], d[0]]) * inner_side  # towards the room
     t = float(wall.attributes["thickness"])
     inner = a + n * t / 2  # a point on the inner face
-    depths = []
+    depths, panes = [], []
     for o in openings:
         c = o.centroid
         u = float(d @ (c[:2] - a))
@@ -106,12 +109,37 @@ def reveal_depth(wall: Shape, openings: Sequence[Shape], grid: PointGrid, inner_
         jamb &= (p[:, 2] > z0 + band) & (p[:, 2] < z1 - band)
         m = (jamb | sill_head) & (pv > band) & (pv <= max_thickness)
         depths.append(pv[m])
+        body = inside & (p[:, 2] > z0 + band) & (p[:, 2] < z1 - band) & (pv > band) & (pv <= max_thickness)
+        panes.append(pv[body])
     if not depths:
         return None
     dv = np.concatenate(depths)
     if len(dv) < min_points:
         return None
-    return _reveal_end(dv, band, max_thickness)
+    end = _reveal_end(dv, band, max_thickness)
+    pane = _pane_depth(np.concatenate(panes), band, max_thickness)
+    if pane is None or end > pane + 2 * band:
+        return end
+    # the reveal seen in full stops at a pane: its part seen through the pane, if any
+    tail = dv[dv > pane + band]
+    if len(tail) < max(min_points // 3, 5):
+        return None
+    return float(np.percentile(tail, 95))
+
+
+def _pane_depth(depth: np.ndarray, start: float, stop: float, step: float = 0.01,
+                share: float = 0.5) -> Optional[float]:
+    """Depth of a pane across the openings (the densest 2 cm of the points inside them,
+    holding at least ``share`` of those points), or None."""
+    if len(depth) < 20:
+        return None
+    edges = np.arange(start, stop + step, step)
+    h, _ = np.histogram(depth, bins=edges)
+    two = h[:-1] + h[1:]
+    i = int(np.argmax(two))
+    if two[i] < share * len(depth):
+        return None
+    return float(edges[i + 1])
 
 
 def _reveal_end(depth: np.ndarray, start: float, stop: float, step: float = 0.01) -> float:

@@ -166,6 +166,65 @@ def test_reveal_depth_measures_an_exterior_wall_through_its_window():
     assert reveal_depth(wall, [win], PointGrid(np.vstack([face, beyond])), 1, 0.7) is None
 
 
+def test_reveal_depth_behind_a_pane():
+    """A pane 12 cm behind the inner face (FZK-Haus): the reveal seen in full ends there; its
+    sparse part seen through the pane gives the 0.30 m wall; without that part the wall is not
+    measured (it was 0.14 m, the frame's depth)."""
+    from engine.elements.thickness import PointGrid, reveal_depth
+    rng = np.random.default_rng(4)
+    wall = Shape("w", ShapeType.WALL, Polyhedron.box((0, -0.3, 0), (6, 0, 2.8)), terminal=True,
+                 attributes={"axis_line": [[0, -0.15], [6, -0.15]], "thickness": 0.3, "external": True,
+                             "sides": ["r", "exterior_s0"]})
+    win = Shape("o", ShapeType.WINDOW, Polyhedron.box((2, -0.3, 0.9), (4, 0, 2.1)), terminal=True, parent="w",
+                attributes={"width": 2.0, "sill": 0.9, "height": 1.2})
+    n = 600
+    near = np.c_[rng.choice([2.0, 4.0], n), -rng.uniform(0.0, 0.13, n), rng.uniform(0.9, 2.1, n)]  # to the frame
+    far = np.c_[rng.choice([2.0, 4.0], 40), -rng.uniform(0.14, 0.3, 40), rng.uniform(0.9, 2.1, 40)]  # through it
+    pane = np.c_[rng.uniform(2.0, 4.0, 3000), rng.normal(-0.12, 0.003, 3000), rng.uniform(0.9, 2.1, 3000)]
+    noise = lambda a: a + rng.normal(0, 0.003, a.shape)  # noqa: E731
+    t = reveal_depth(wall, [win], PointGrid(noise(np.vstack([near, far, pane]))), inner_side=1, max_thickness=0.7)
+    assert t == pytest.approx(0.30, abs=0.02)
+    assert reveal_depth(wall, [win], PointGrid(noise(np.vstack([near, pane]))), 1, 0.7) is None
+    # no pane (an open hole): the reveal runs on to the outer face
+    assert reveal_depth(wall, [win], PointGrid(noise(np.vstack([near, far]))), 1, 0.7) == pytest.approx(0.30, abs=0.02)
+
+
+@pytest.mark.parametrize("outside,kind", [("terrace", "door"), ("ground_below", "window"), ("none", "door"),
+                                          ("closed", "door")])
+def test_exterior_door_with_nothing_walkable_beyond_is_a_window(outside, kind):
+    """An upper storey's floor-to-ceiling window (floor at z = 3) looks like a door; beyond it
+    the scan sees the ground 3 m below and nothing at its floor's level: a window. A terrace
+    at the floor's level keeps it a door; so do no points beyond and a closed leaf."""
+    from engine.elements.egress import elevated_doors
+    from engine.elements.thickness import PointGrid
+    rng = np.random.default_rng(6)
+    # exterior wall along x, room on the +y side (left of the axis), exterior on the right
+    wall = Shape("w", ShapeType.WALL, Polyhedron.box((0, -0.3, 3), (6, 0, 5.8)), terminal=True, storey=1,
+                 attributes={"axis_line": [[0, -0.15], [6, -0.15]], "thickness": 0.3, "external": True,
+                             "sides": ["r", "exterior_s1"]})
+    door = Shape("door_w_0", ShapeType.DOOR, Polyhedron.box((2, -0.3, 3), (2.8, 0, 5.2)), terminal=True,
+                 parent="w", storey=1, name="Door 1", support={"seen_through": 0.2 if outside != "closed" else 0.0},
+                 attributes={"width": 0.8, "sill": 0.0, "height": 2.2, "kind": "door", "open": outside != "closed"})
+    win = Shape("window_w_1", ShapeType.WINDOW, Polyhedron.box((4, -0.3, 4), (5, 0, 5)), terminal=True,
+                parent="w", storey=1, name="Window 1", attributes={"width": 1.0, "sill": 1.0, "height": 1.0,
+                                                                    "kind": "window"})
+    room = np.c_[rng.uniform(0, 6, 3000), rng.uniform(0, 4, 3000), np.full(3000, 3.0)]
+    beyond = {"terrace": np.c_[rng.uniform(1.5, 3.3, 200), -rng.uniform(0.5, 3, 200), np.full(200, 2.9)],
+              "ground_below": np.c_[rng.uniform(0, 6, 200), -rng.uniform(2, 12, 200), np.zeros(200)],
+              "none": np.zeros((0, 3)), "closed": np.c_[rng.uniform(0, 6, 200), -rng.uniform(2, 12, 200),
+                                                        np.zeros(200)]}[outside]
+    out = elevated_doors([door, win], [wall], PointGrid(np.vstack([room, beyond])))
+    assert len(out) == 2 and out[1].type == ShapeType.WINDOW and out[1].id == "window_w_1"
+    o = out[0]
+    assert o.type.value == kind
+    if kind == "window":
+        assert o.id == "window_w_0" and o.attributes["kind"] == "window" and "open" not in o.attributes
+        assert o.attributes["sill"] == 0.0 and o.attributes["height"] == 2.2 and "egress" in o.log[-1]
+        assert sorted(s.name for s in out) == ["Window 1", "Window 2"]
+    else:
+        assert o is door
+
+
 # ----------------------------------------------------------------------------- breaks and thick gaps
 def _runs(fps, **kw):
     from engine.elements.walls import wall_runs

@@ -1,0 +1,89 @@
+"""Exterior doors that lead nowhere walkable are windows (docs/method.md §7.3).
+
+A gap in an exterior wall that reaches the floor is a door by its shape. Seen through, the
+scan also says what lies beyond it: a door leads onto ground, a terrace or a balcony at about
+its floor's level, just outside. A floor-to-ceiling window of an upper storey (the Duplex's
+750 × 2200 mm windows on level 2, sill 10 cm, with nothing under the hole to see) has nothing
+there; the ground seen through it lies a storey lower. Such an opening is a window with its
+sill at the gap's bottom. Without points beyond (no surroundings in the scan, a closed leaf)
+nothing changes.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..model import Shape, ShapeType
+from .params import OpeningParams
+from .thickness import PointGrid
+
+__all__ = ["elevated_doors"]
+
+
+def _outer_normal(wall: Shape):
+    """(a, d, n, half): the wall's axis start and unit direction, the unit normal pointing to
+    its exterior side and half its thickness; None when the wall has no exterior side."""
+    ax = wall.attributes.get("axis_line")
+    sides = wall.attributes.get("sides") or [None, None]
+    if ax is None:
+        return None
+    left_out = str(sides[0]).startswith("exterior_s")
+    right_out = str(sides[1]).startswith("exterior_s")
+    if left_out == right_out:
+        return None
+    a, b = np.asarray(ax[0], float), np.asarray(ax[1], float)
+    d = (b - a) / max(float(np.linalg.norm(b - a)), 1e-12)
+    n = np.array([-d[1], d[0]]) * (1.0 if left_out else -1.0)  # left of the axis is +n
+    return a, d, n, float(wall.attributes["thickness"]) / 2
+
+
+def _beyond(grid: PointGrid, a, d, n, half, u0, u1, depth, z0, z1) -> int:
+    """Points beyond the outer face: along the wall in [u0, u1], up to ``depth`` out, z in [z0, z1]."""
+    corners = np.array([a + d * u + n * (half + v) for u in (u0, u1) for v in (0.05, depth)])
+    idx = grid.in_box(np.r_[corners.min(axis=0), z0], np.r_[corners.max(axis=0), z1])
+    if len(idx) == 0:
+        return 0
+    q = grid.xyz[idx, :2] - a
+    u, v = q @ d, q @ n - half
+    return int(np.count_nonzero((u >= u0) & (u <= u1) & (v >= 0.05) & (v <= depth)))
+
+
+def elevated_doors(openings: list[Shape], walls: list[Shape], grid: PointGrid,
+                   params: OpeningParams = OpeningParams()) -> list[Shape]:
+    """``openings`` with the open exterior doors (and doorless openings) that lead nowhere
+    walkable turned into windows; names renumbered per kind when one changed."""
+    by_id = {w.id: w for w in walls}
+    out, changed = [], False
+    for o in openings:
+        w = by_id.get(o.parent)
+        seen = float((o.support or {}).get("seen_through", 0.0))
+        frame = _outer_normal(w) if w is not None and w.attributes.get("external") else None
+        if o.type != ShapeType.DOOR or not o.attributes.get("open", True) or seen < params.min_seen_through \
+                or frame is None:
+            out.append(o)
+            continue
+        a, d, n, half = frame
+        u = float(d @ (o.centroid[:2] - a))
+        width = float(o.attributes.get("width", 0.0))
+        u0, u1 = u - width / 2, u + width / 2
+        floor = float(o.bounds[0, 2]) - float(o.attributes.get("sill", 0.0))
+        lo, hi = params.egress_band
+        walk = _beyond(grid, a, d, n, half, u0, u1, params.egress_depth, floor + lo, floor + hi)
+        below = _beyond(grid, a, d, n, half, u0 - 2.0, u1 + 2.0, 20.0, -np.inf, floor - params.elevated_drop)
+        if walk > 3 or below < params.min_elevated_points:
+            out.append(o)
+            continue
+        attrs = {k: v for k, v in o.attributes.items() if k != "open"}
+        attrs["kind"] = "window"
+        out.append(o.logged(f"egress: nothing walkable within {params.egress_depth:.1f} m beyond it "
+                            f"({walk} points at its floor's level), {below} points of the ground "
+                            f"{params.elevated_drop:.1f} m or more below: a window down to the floor",
+                            type=ShapeType.WINDOW, id=o.id.replace("door_", "window_", 1), attributes=attrs))
+        changed = True
+    if not changed:
+        return out
+    count = {ShapeType.DOOR: 0, ShapeType.WINDOW: 0}
+    named = []
+    for o in out:
+        count[o.type] = count.get(o.type, 0) + 1
+        named.append(o.with_(name=f"{o.type.value.capitalize()} {count[o.type]}"))
+    return named
