@@ -91,12 +91,13 @@ def test_fzk_haus_has_no_false_door_and_its_walls(results, noise):
 @pytest.mark.slow
 @pytest.mark.parametrize("noise", ["tls", "mobile"])
 def test_duplex_party_wall_is_one_wall_without_openings(results, noise):
-    """Measured on seed 3: doors P 0.76 / R 0.93 (TLS), 0.92 / 0.86 (mobile); before: 0.43 /
-    0.71 and 0.69 / 0.79, with 4-5 m 'openings' along the party wall into the other flat.
-    The party wall between the flats is an interior wall (both sides rooms) and holds no
-    opening."""
+    """Measured on seed 3: doors P 0.93 / R 1.00 (TLS), 0.92 / 0.86 (mobile); before the thick
+    walls 0.43 / 0.71 and 0.69 / 0.79, with 4-5 m 'openings' along the party wall into the
+    other flat; before the egress rule (level 2's 750 x 2200 mm windows were doors) 0.76 /
+    0.93 (TLS). The party wall between the flats is an interior wall (both sides rooms) and
+    holds no opening."""
     sc, m, r = _run(results, "duplex", noise, 3)
-    assert r["doors"]["precision"] >= 0.65 and r["doors"]["recall"] >= 0.75, r["doors"]
+    assert r["doors"]["precision"] >= 0.8 and r["doors"]["recall"] >= 0.78, r["doors"]
     from engine.evaluation.elements import _in_truth_frame, _plan
 
     from shapely.geometry import Point
