@@ -143,16 +143,21 @@ def test_a_model_with_its_own_exterior_ids_and_detected_openings_rebuilds():
     assert "door_d" in third
 
 
-def test_reveal_depth_measures_an_exterior_wall_through_its_window():
-    from engine.elements.thickness import PointGrid, reveal_depth
-    rng = np.random.default_rng(3)
-    # exterior wall along x, room on the +y side (inner face y = 0), truly 0.45 m thick (outer face y = -0.45);
-    # the run was built with the default 0.3 m: axis at y = -0.15
+def _wall_with_window(u0, u1, sill, top):
+    """An exterior wall run along x built with the default 0.3 m (axis y = -0.15, inner face
+    y = 0, the room on the +y side) and a window from u0 to u1, z sill to top."""
     wall = Shape("w", ShapeType.WALL, Polyhedron.box((0, -0.3, 0), (6, 0, 2.8)), terminal=True,
                  attributes={"axis_line": [[0, -0.15], [6, -0.15]], "thickness": 0.3, "external": True,
                              "sides": ["r", "exterior_s0"]})
-    win = Shape("o", ShapeType.WINDOW, Polyhedron.box((2, -0.3, 0.9), (3.2, 0, 2.2)), terminal=True, parent="w",
-                attributes={"width": 1.2, "sill": 0.9, "height": 1.3})
+    win = Shape("o", ShapeType.WINDOW, Polyhedron.box((u0, -0.3, sill), (u1, 0, top)), terminal=True, parent="w",
+                attributes={"width": u1 - u0, "sill": sill, "height": top - sill})
+    return wall, win
+
+
+def test_reveal_depth_measures_an_exterior_wall_through_its_window():
+    from engine.elements.thickness import PointGrid, reveal_depth
+    rng = np.random.default_rng(3)
+    wall, win = _wall_with_window(2.0, 3.2, 0.9, 2.2)  # truly 0.45 m thick (outer face y = -0.45)
     n = 4000
     jamb = np.c_[rng.choice([2.0, 3.2], n), -rng.uniform(0, 0.45, n), rng.uniform(0.9, 2.2, n)]
     sill = np.c_[rng.uniform(2.0, 3.2, n), -rng.uniform(0, 0.45, n), np.full(n, 0.9)]
@@ -172,11 +177,7 @@ def test_reveal_depth_behind_a_pane():
     measured (it was 0.14 m, the frame's depth)."""
     from engine.elements.thickness import PointGrid, reveal_depth
     rng = np.random.default_rng(4)
-    wall = Shape("w", ShapeType.WALL, Polyhedron.box((0, -0.3, 0), (6, 0, 2.8)), terminal=True,
-                 attributes={"axis_line": [[0, -0.15], [6, -0.15]], "thickness": 0.3, "external": True,
-                             "sides": ["r", "exterior_s0"]})
-    win = Shape("o", ShapeType.WINDOW, Polyhedron.box((2, -0.3, 0.9), (4, 0, 2.1)), terminal=True, parent="w",
-                attributes={"width": 2.0, "sill": 0.9, "height": 1.2})
+    wall, win = _wall_with_window(2.0, 4.0, 0.9, 2.1)
     n = 600
     near = np.c_[rng.choice([2.0, 4.0], n), -rng.uniform(0.0, 0.13, n), rng.uniform(0.9, 2.1, n)]  # to the frame
     far = np.c_[rng.choice([2.0, 4.0], 40), -rng.uniform(0.14, 0.3, 40), rng.uniform(0.9, 2.1, 40)]  # through it
