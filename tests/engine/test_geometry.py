@@ -81,6 +81,25 @@ def test_pca_normal_of_a_noisy_plane():
     assert np.allclose(knn_normals(pts, 16, q), vec[:, :, 0])
 
 
+def test_one_shared_tree_gives_the_same_spacing_and_noise():
+    """The Manhattan method builds one k-d tree of the full cloud, in the input frame, for the
+    spacing, the normals' fallback and the noise of the aligned cloud: the noise is the PCA's
+    smallest eigenvalue, which the alignment's rotation leaves as it is."""
+    from engine.geometry.kdtree import kdtree
+    from engine.geometry.spacing import estimate_spacing
+    from engine.grammar.params import estimate_noise
+
+    rng = np.random.default_rng(8)
+    ab = rng.uniform(0, 4, size=(30000, 2))
+    xyz = np.c_[ab, rng.normal(0, 0.004, 30000)] + [500.0, 200.0, 10.0]
+    tree = kdtree(xyz)
+    assert estimate_spacing(xyz, tree=tree) == estimate_spacing(xyz)
+    turned = apply_transform(_rigid(0.7, (3.0, -2.0, 1.0)), xyz)
+    a, b = estimate_noise(turned, rng=1), estimate_noise(xyz, rng=1, tree=tree)
+    assert b == pytest.approx(a, rel=1e-6) and 0.003 < a < 0.005
+    assert np.allclose(knn_normals(xyz, 12, np.arange(50), tree=tree), knn_normals(xyz, 12, np.arange(50)))
+
+
 # ----------------------------------------------------------------------------- planes
 @pytest.mark.parametrize("normal", [(0, 0, 1), (0, 0, -1), (1, 0, 0), (0.6, 0.8, 0), (0.3, 0.1, 0.95),
                                     (1, 1, 1)])
