@@ -93,11 +93,12 @@ def test_one_shared_tree_gives_the_same_spacing_and_noise():
     ab = rng.uniform(0, 4, size=(30000, 2))
     xyz = np.c_[ab, rng.normal(0, 0.004, 30000)] + [500.0, 200.0, 10.0]
     tree = kdtree(xyz)
-    assert estimate_spacing(xyz, tree=tree) == estimate_spacing(xyz)
+    assert estimate_spacing(xyz, tree=tree) == pytest.approx(estimate_spacing(xyz), rel=1e-9)
     turned = apply_transform(_rigid(0.7, (3.0, -2.0, 1.0)), xyz)
     a, b = estimate_noise(turned, rng=1), estimate_noise(xyz, rng=1, tree=tree)
     assert b == pytest.approx(a, rel=1e-6) and 0.003 < a < 0.005
-    assert np.allclose(knn_normals(xyz, 12, np.arange(50), tree=tree), knn_normals(xyz, 12, np.arange(50)))
+    dots = np.einsum("ij,ij->i", knn_normals(xyz, 12, np.arange(50), tree=tree), knn_normals(xyz, 12, np.arange(50)))
+    assert np.all(np.abs(dots) > 1 - 1e-9)  # the same normals (their sign is free)
 
 
 # ----------------------------------------------------------------------------- planes
