@@ -11,7 +11,7 @@ import logging
 import numpy as np
 
 from ..errors import EmptyCloudError, MissingDependencyError
-from ..geometry.kdtree import kdtree
+from ..geometry.kdtree import kdtree, spatial_order
 from ..geometry.normals import knn_normals
 from ..pointcloud import PointCloud
 from ..progress import Progress
@@ -244,9 +244,11 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     p = Progress.wrap(progress, should_stop)
     p(0.0, "normals")
     o3d = _o3d()
-    pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.xyz))
+    order = spatial_order(cloud.xyz, params.radius)  # queries in space order: same normals, less time
+    pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.xyz[order]))
     pc.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=params.radius, max_nn=params.max_nn))
-    nrm = np.asarray(pc.normals, dtype=np.float64)
+    nrm = np.empty((len(cloud), 3))
+    nrm[order] = np.asarray(pc.normals, dtype=np.float64)
     # open3d leaves exactly (0, 0, 1) when a neighbourhood has fewer than 3 points
     bad = (~np.isfinite(nrm).all(axis=1) | (np.linalg.norm(nrm, axis=1) < 0.5)
            | ((nrm[:, 0] == 0.0) & (nrm[:, 1] == 0.0)))

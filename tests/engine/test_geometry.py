@@ -101,6 +101,23 @@ def test_one_shared_tree_gives_the_same_spacing_and_noise():
     assert np.all(np.abs(dots) > 1 - 1e-9)  # the same normals (their sign is free)
 
 
+def test_spatial_order_is_a_local_permutation():
+    """Morton order: a permutation in which consecutive points are neighbours (the normals'
+    queries then walk memory in step); the extent is fitted to 2^21 cells per axis."""
+    from engine.geometry.kdtree import spatial_order
+
+    rng = np.random.default_rng(9)
+    xyz = rng.uniform(0, 20, size=(20000, 3)) + [1e5, 2e5, 10.0]
+    order = spatial_order(xyz, 0.25)
+    assert np.array_equal(np.sort(order), np.arange(len(xyz)))
+    step = np.linalg.norm(np.diff(xyz[order], axis=0), axis=1)
+    rand = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
+    assert np.median(step) < 0.1 * np.median(rand), (np.median(step), np.median(rand))
+    far = np.vstack([xyz, [[1e9, 0, 0]]])  # a point a million km away: still a permutation
+    assert np.array_equal(np.sort(spatial_order(far, 0.25)), np.arange(len(far)))
+    assert spatial_order(np.zeros((0, 3)), 0.1).shape == (0,)
+
+
 # ----------------------------------------------------------------------------- planes
 @pytest.mark.parametrize("normal", [(0, 0, 1), (0, 0, -1), (1, 0, 0), (0.6, 0.8, 0), (0.3, 0.1, 0.95),
                                     (1, 1, 1)])
