@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
-from .kdtree import kdtree
+from .kdtree import kdtree, spatial_order
 
 __all__ = ["estimate_spacing"]
 
@@ -32,6 +32,7 @@ def estimate_spacing(xyz: np.ndarray, sample: int = 20000, radius: float = 0.1, 
         return 0.0
     tree = kdtree(xyz) if tree is None else tree
     q = xyz if len(xyz) <= sample else xyz[rng.choice(len(xyz), sample, replace=False)]
+    q = q[spatial_order(q, radius)]  # queries in space order: faster, same counts
     r = radius
     for _ in range(4):  # widen the ball until it holds enough neighbours to count on
         counts = tree.query_ball_point(q, r=r, return_length=True).astype(np.float64)
