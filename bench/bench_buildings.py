@@ -6,7 +6,10 @@ points (quick: FZK and Duplex both, TLS, seed 0): ``reconstruct`` with each meth
 :func:`engine.evaluation.rooms.room_scores` (one-to-one footprint IoU with open plans merged,
 recall, mean IoU, small or low spaces the truth lacks, area outside the true envelope; only
 the true spaces the scan reaches, :func:`~engine.evaluation.rooms.scanned_spaces`) and the
-side-face (wall group) completeness and correctness at 10 cm of :func:`engine.evaluation.evaluate`.
+side-face (wall group) completeness and correctness at 10 cm of :func:`engine.evaluation.evaluate`
+over the true surfaces the scan sees (:func:`engine.evaluation.annotate_visibility`, as the
+thesis's evaluation; "all": over every true surface, e.g. a stairwell's faces on the storey a
+cut leaves out). Open plans' virtual boundaries are no surfaces (``shared_face_gap``).
 A failed reconstruction is a row with its error (an empty model is an error naming its stage).
 
 Writes ``buildings_table.md`` (one markdown table per scene) and ``buildings_runs.json``.
@@ -41,7 +44,7 @@ CUTS = {"fzk_haus": ("both",), "duplex": ("L1", "L2", "both")}
 """Which scans of each building: one storey of the truth (L1 = the first storey with rooms)
 cut out of the whole scan, or the whole scan."""
 COLUMNS = ("scan", "noise", "seed", "method", "storeys m/t", "rooms m/t", "matched", "recall", "mean IoU",
-           "small/low", "outside m²", "wall compl", "wall corr", "rec s")
+           "small/low", "outside m²", "wall compl", "wall corr", "compl all", "corr all", "rec s")
 
 
 def _storeys_with_rooms(truth) -> list:
@@ -93,8 +96,14 @@ def one(scene, cut: str, method: str) -> dict:
     seen = scanned_spaces(truth, cloud.xyz)
     row["rooms"] = room_scores(model, truth, seen=seen)
     try:
+        from engine.evaluation import annotate_visibility
+
         ev = evaluate(model, truth)
         i = int(np.argmin(np.abs(ev.buffers - 0.10)))
+        row["wall_completeness_all"] = float(ev.curve("completeness", "wall")[i])
+        row["wall_correctness_all"] = float(ev.curve("correctness", "wall")[i])
+        vis = annotate_visibility(truth, cloud)
+        ev = evaluate(model, truth, visible={k: v["visible"] for k, v in vis.items()})
         row["wall_completeness"] = float(ev.curve("completeness", "wall")[i])
         row["wall_correctness"] = float(ev.curve("correctness", "wall")[i])
     except Exception as e:
@@ -122,7 +131,8 @@ def table(rows: list) -> str:
             out.append("| " + " | ".join(head + [
                 f"{s['storeys']['model']}/{s['storeys']['truth']}", f"{s['model']}/{s['true']}", str(s["matched"]),
                 _f(s["recall"]), _f(s["mean_iou"]), str(s["small_spurious"]), _f(s["outside_m2"], 1),
-                _f(r.get("wall_completeness")), _f(r.get("wall_correctness")), _f(r.get("rec_s"), 1)]) + " |")
+                _f(r.get("wall_completeness")), _f(r.get("wall_correctness")), _f(r.get("wall_completeness_all")),
+                _f(r.get("wall_correctness_all")), _f(r.get("rec_s"), 1)]) + " |")
         out.append("")
     return "\n".join(out)
 

@@ -35,7 +35,7 @@ from ..geometry.transforms import frame_transform
 from ..model import BuildingModel
 from ..progress import Progress
 from .loading import transform_model
-from .patches import PlanarPatch, overlap_on, safe_union, patches_from_model, points_inside, sample_patch_grid
+from .patches import PlanarPatch, drop_shared_faces, overlap_on, safe_union, patches_from_model, points_inside, sample_patch_grid
 
 __all__ = ["EvaluationParams", "EvaluationResult", "evaluate", "DEFAULT_BUFFERS", "GROUPS"]
 
@@ -76,6 +76,11 @@ class EvaluationParams:
     missing_threshold: float = 0.05
     """A reference (source) surface whose covered share is at most this is missing
     (redundant)."""
+    shared_face_gap: float = 0.03
+    """Faces of two reference spaces facing each other at most this far apart (metres) are a
+    virtual boundary of an open plan, not a surface: they are left out of the reference
+    (:func:`~engine.evaluation.patches.drop_shared_faces`); 0 keeps them. The source's faces
+    are all kept: where it separates two spaces it claims a surface."""
 
     def __post_init__(self):
         b = tuple(float(x) for x in self.buffers)
@@ -272,7 +277,7 @@ def evaluate(source, reference, params: Optional[EvaluationParams] = None, *, vi
             log.info("moving the source into the reference's frame (their transforms/offsets differ)")
             source = transform_model(source, m)
     src = _as_patches(source, params, "source")
-    ref = _as_patches(reference, params, "reference")
+    ref = drop_shared_faces(_as_patches(reference, params, "reference"), params.shared_face_gap, params.max_angle)
     if not ref:
         raise InputError(f"the reference has no surfaces of types {params.surface_types} and kinds {params.groups}")
     vis = _visible_mask(ref, visible)

@@ -24,6 +24,7 @@ __all__ = [
     "PlanarPatch",
     "patches_from_model",
     "merge_coplanar",
+    "drop_shared_faces",
     "project_to",
     "overlap_on",
     "points_inside",
@@ -216,6 +217,53 @@ def merge_coplanar(patches: Sequence[PlanarPatch]) -> list[PlanarPatch]:
     return out
 
 
+def drop_shared_faces(patches: Sequence[PlanarPatch], gap: float, max_angle: float) -> list[PlanarPatch]:
+    """The patches without their parts that face another shape's face across at most ``gap``.
+
+    Two spaces of an open plan (a living room and its kitchen, a corridor and its stair)
+    meet face to face with no wall between: their shared faces are a virtual boundary that
+    no scan can see and no model needs to draw (a wall, however thin, puts its two faces
+    further apart than ``gap``). For each pair of patches of different shapes with opposite
+    normals (within ``max_angle``, radians) and planes at most ``gap`` metres apart, the part
+    of each lying on the other is cut away; a patch left with less than ``MIN_AREA`` is dropped.
+    """
+    patches = list(patches)
+    if gap <= 0 or len(patches) < 2:
+        return patches
+    cos_t = float(np.cos(max_angle))
+    normals = np.array([p.normal for p in patches])
+    boxes = []
+    for p in patches:
+        pts = np.vstack(p.outline3d()) if not p.geom.is_empty else np.zeros((1, 3))
+        boxes.append((pts.min(axis=0) - gap, pts.max(axis=0) + gap))
+    lo = np.array([b[0] for b in boxes])
+    hi = np.array([b[1] for b in boxes])
+    cuts: dict[int, list] = {}
+    for i, a in enumerate(patches):
+        facing = (normals @ a.normal <= -cos_t) & np.all(lo <= hi[i], axis=1) & np.all(hi >= lo[i], axis=1)
+        for j in np.flatnonzero(facing):
+            b = patches[j]
+            if j <= i or b.shape_id == a.shape_id or b.kind != a.kind:
+                continue
+            ab = overlap_on(a, b, gap)  # b's part on a's plane, within a
+            if ab is None:
+                continue
+            cuts.setdefault(i, []).append(ab)
+            ba = overlap_on(b, a, gap)
+            if ba is not None:
+                cuts.setdefault(j, []).append(ba)
+    out = []
+    for i, p in enumerate(patches):
+        if i not in cuts:
+            out.append(p)
+            continue
+        rest = safe_difference(p.geom, safe_union(cuts[i]))
+        if rest.area >= MIN_AREA:
+            out.append(PlanarPatch(p.key, p.shape_id, p.face, p.kind, p.storey, p.shape_type, p.normal, p.rho,
+                                   p.origin, p.u, p.v, rest, p.name))
+    return out
+
+
 GRID = 1e-6
 """Precision grid (metres) geometries are snapped to when an overlay fails on round-off."""
 
@@ -243,6 +291,18 @@ def safe_intersection(a, b):
         except shapely.errors.GEOSException as e:
             log.warning("overlay failed even after repair (%s); counted as no overlap", e)
             return shapely.Polygon()
+
+
+def safe_difference(a, b):
+    """``a − b``, robust like :func:`safe_intersection` (on failure ``a`` is kept whole)."""
+    try:
+        return a.difference(b)
+    except shapely.errors.GEOSException:
+        try:
+            return shapely.difference(_repair(a), _repair(b), grid_size=GRID)
+        except shapely.errors.GEOSException as e:
+            log.warning("difference failed even after repair (%s); nothing cut", e)
+            return a
 
 
 def safe_union(geoms):

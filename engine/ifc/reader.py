@@ -40,6 +40,7 @@ from shapely.geometry import Point, Polygon
 from shapely.ops import unary_union
 
 from ..errors import FormatError, InputError, MissingDependencyError, is_valid_text
+from ..geometry.mesh import orient_outward
 from ..geometry.transforms import apply_transform
 from ..model import BuildingModel, Polyhedron, Provenance, Relation, Shape, ShapeType, Storey
 from ..progress import Progress
@@ -701,6 +702,8 @@ def _polyhedron(v: np.ndarray, tri: np.ndarray, prm: IfcReadParams) -> Optional[
     tri, cr, area2 = tri[keep], cr[keep], area2[keep]
     if len(tri) == 0:
         return None
+    tri = orient_outward(v, tri)  # some IFC solids wind faces inwards
+    cr = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
     prism = _as_prism(v, tri, cr / area2[:, None], area2 / 2, prm)
     if prism is not None:
         return prism

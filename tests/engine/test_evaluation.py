@@ -208,3 +208,20 @@ def test_progress_and_cancel():
     assert seen[0] == 0.0 and seen[-1] == 1.0 and seen == sorted(seen)
     with pytest.raises(Cancelled):
         evaluate(REF, REF, should_stop=lambda: True)
+
+
+def test_open_plan_boundary_is_no_surface():
+    # the truth splits one 6 m x 9 m open plan into a living room and a kitchen meeting face to
+    # face (no wall); a model with the one room is complete and correct: the virtual boundary
+    # (2 x 6 m x 2.5 m of faces) is no surface. A 10 cm wall between them keeps both faces.
+    open_plan = room_model({"Living": (0.0, 0.0, 6.0, 5.0), "Kitchen": (0.0, 5.0, 6.0, 9.0)})
+    one = room_model({"Room": ROOM})
+    res = evaluate(one, open_plan)
+    assert res.curve("completeness", "wall")[-1] >= 0.99 and res.curve("correctness", "wall")[-1] >= 0.99
+    kept = evaluate(one, open_plan, EvaluationParams(shared_face_gap=0.0))
+    share = 2 * (9 + 6) / (2 * (9 + 6) + 2 * 6)  # perimeter walls / all truth wall faces
+    assert abs(kept.curve("completeness", "wall")[-1] - share) <= 0.01
+    walled = room_model({"Living": (0.0, 0.0, 6.0, 4.95), "Kitchen": (0.0, 5.05, 6.0, 9.0)})
+    res = evaluate(one, walled)
+    assert sum(r.kind == "wall" for r in res.reference) == 8
+    assert res.curve("completeness", "wall")[-1] <= share + 0.02

@@ -111,3 +111,45 @@ def test_duplex_windows_doors_and_attributes():
     # windows without a space boundary get their room by geometry
     assert all(len(w.attributes["spaces"]) == 2 and w.attributes["spaces"][0] in names for w in m.windows)
     assert sorted({round(w.attributes["sill"], 3) for w in m.windows if w.storey == 2}) == [0.1, 0.925, 1.751]
+
+
+@pytest.mark.parametrize("path", [FZK, DUPLEX])
+def test_space_faces_point_outwards(path):
+    # the Duplex's IfcSpace breps wind some faces inwards; the reader turns them out, so that
+    # the evaluation (which compares like-facing surfaces) sees every room face: a point 2 cm
+    # along each face's normal lies outside the room, 2 cm against it inside
+    from engine.geometry.mesh import inside
+
+    m = _read(path)
+    checked = 0
+    for s in m.spaces:
+        g = s.geometry
+        v, tri = g.triangles()
+        cen = np.array([g.face_vertices(i).mean(axis=0) for i in range(len(g.faces))])
+        n = np.array([g.face_normal(i) for i in range(len(g.faces))])
+        big = np.array([g.face_area(i) > 0.05 for i in range(len(g.faces))])
+        out, into = inside(v, tri, cen[big] + 0.02 * n[big]), inside(v, tri, cen[big] - 0.02 * n[big])
+        assert not out.any() and into.all(), (s.name, np.flatnonzero(big)[out | ~into])
+        checked += int(big.sum())
+    assert checked >= 6 * len(m.spaces)
+
+
+def test_orient_outward_mixed_windings():
+    from engine.geometry.mesh import orient_outward
+    from engine.model import Polyhedron
+
+    rng = np.random.default_rng(0)
+    parts = [Polyhedron.prism([(0, 0), (3, 0), (3, 1), (1, 1), (1, 3), (0, 3)], 0, 2.5),  # an L
+             Polyhedron.box((4, 0, 0), (5, 2, 1))]
+    v, t = [], []
+    for g in parts:
+        gv, gt = g.triangles()
+        t.append(gt + sum(len(x) for x in v))
+        v.append(gv)
+    v, t = np.vstack(v), np.vstack(t)
+    for _ in range(3):
+        bad = t.copy()
+        f = rng.random(len(t)) < 0.5
+        bad[f] = bad[f][:, ::-1]
+        assert np.array_equal(orient_outward(v, bad), t)
+    assert np.array_equal(orient_outward(v, t[:, ::-1]), t)  # all inside out
