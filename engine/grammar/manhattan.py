@@ -59,6 +59,7 @@ from .geometry import box_of
 from .ipof import grid_face_index
 from .params import ManhattanParams, estimate_noise, params_from_data
 from .place import StoreyFrame, detect_levels, histogram_peaks, storey_chunks, storey_frame
+from .roof import roof_planes, slope_spaces
 from .rules import classify, derive_topology, reject_implausible_spaces
 
 __all__ = ["manhattan_model", "reconstruct_manhattan", "reconstruct_grammar", "place_storey"]
@@ -543,12 +544,14 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
     t2 = time.perf_counter()
     parts, model_storeys = [], []
     T = np.eye(4) if transform is None else np.asarray(transform, dtype=np.float64)
-    sloped = []
+    sloped, roofs = [], {}
     for si, fr in enumerate(frames):
         p(0.3 + 0.5 * si / len(frames), f"storey {si}: place and classify")
-        sx, sn = _with_sloped_ceiling(xyz, normals, fr, params)
+        sx, sn, under = _with_sloped_ceiling(xyz, normals, fr, params)
         if sx is not xyz:
             sloped.append(si)
+            roofs[si] = roof_planes(xyz[under], normals[under], spacing=spacing, buffer=params.shape_buffer,
+                                    min_roof_area=params.min_roof_area)
         parts.extend(place_storey(sx, sn, fr, si, params, spacing))
         elev = float((T @ np.array([0.0, 0.0, fr.floor, 1.0]))[2] + cloud.offset[2])
         model_storeys.append(Storey(si, fr.floor, fr.ceiling, f"Storey {si}", elev))
@@ -564,11 +567,14 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
     model = reject_implausible_spaces(model, params.min_space_width, params.min_space_area,
                                       params.min_space_height, params.tau)
     model = _ceiling_confidence(model)
+    for si, fits in roofs.items():
+        model = slope_spaces(model, si, fits, spacing=spacing)
     timings["topology"] = time.perf_counter() - t3
     model = model.with_(provenance=Provenance(
         method="manhattan", parameters=params.to_dict(), timings=timings,
         trace={"storeys": [{"floor": f.floor, "ceilings": list(f.ceilings)} for f in frames],
                "cuboids": len(parts), "sloped_storeys": sloped,
+               "roof_planes": {si: len(f) for si, f in roofs.items()},
                "evidence": {"spaces_before": n_spaces, "spaces_after": len(model.spaces)}},
         source=cloud.source, software="indoor engine"))
     p(1.0, "done")
@@ -576,7 +582,8 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
 
 
 def _with_sloped_ceiling(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, params: ManhattanParams):
-    """(xyz, normals) with the roof undersides of an attic storey projected onto its top.
+    """(xyz, normals, under): the points with the roof undersides of an attic storey projected
+    onto its top, and the indices of those undersides (None for other storeys).
 
     A storey whose top is sloped (pitched roof slabs, no flat ceiling over most of it) has
     more sloped points (``sloped_normal_min`` ≤ |n_z| < cos θ) in its upper half than
@@ -584,7 +591,8 @@ def _with_sloped_ceiling(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFram
     (normal up), so the grammar sees the ceiling that covers the rooms under the roof and
     the storey's grid reaches the roof's seen extent (every sloped point higher than
     ``sloped_min_height`` above the floor, down to the eaves, over the storey's floor).
-    Other storeys: the input unchanged.
+    Other storeys: the input unchanged. (:func:`~engine.grammar.roof.slope_spaces` cuts the
+    rooms by the roof planes afterwards.)
     """
     cos_t = np.cos(params.normal_angle)
     nz = np.abs(normals[:, 2])
@@ -595,18 +603,19 @@ def _with_sloped_ceiling(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFram
     flat = (np.abs(xyz[:, 2] - top) <= d) & (nz >= cos_t)
     ns, nf = int(slope.sum()), int(flat.sum())
     if ns <= params.sloped_ceiling_ratio * max(nf, 1):
-        return xyz, normals
+        return xyz, normals, None
     log.info("storey at z = %.2f: sloped top (%d sloped, %d flat points at %.2f m); roof undersides "
              "projected onto the top", frame.floor, ns, nf, top)
     low = (xyz[:, 2] > frame.floor + params.sloped_min_height) & (xyz[:, 2] <= top + d)
-    q = xyz[low & (nz >= params.sloped_normal_min) & (nz < cos_t)].copy()  # down to the eaves
+    under = np.flatnonzero(low & (nz >= params.sloped_normal_min) & (nz < cos_t))  # down to the eaves
     cell = 2.0 * params.level_cell  # only over the storey's floor (not the roof seen from outside)
     on_floor = _cell_lookup(xyz[(np.abs(xyz[:, 2] - frame.floor) <= d) & (nz >= cos_t), :2], cell)
-    q = q[on_floor(np.floor(q[:, :2] / cell).astype(np.int64))]
+    under = under[on_floor(np.floor(xyz[under, :2] / cell).astype(np.int64))]
+    q = xyz[under].copy()
     q[:, 2] = top
     up = np.zeros_like(q)
     up[:, 2] = 1.0
-    return np.vstack([xyz, q]), np.vstack([normals, up])
+    return np.vstack([xyz, q]), np.vstack([normals, up]), under
 
 
 def _ceiling_confidence(model: BuildingModel) -> BuildingModel:

@@ -250,6 +250,8 @@ class ManhattanParams:
     """A storey whose upper half holds this many times more sloped points than horizontal
     points at its top level has a sloped top (an attic): its roof undersides stand for the
     ceiling."""
+    min_roof_area: SquareMetres = 2.0
+    """A roof plane under which attic rooms are cut needs this much plan area of points."""
     level_cell: Metres = 0.25
     """Cell of the 2D occupancy grid that tells ceilings (nothing above) from desks, metres."""
     level_exposed: Ratio = 0.5

@@ -209,3 +209,60 @@ def test_transforms_round_trip():
     tb, ob = _rigid(-1.1, (0, 1, 0)), np.array([0.0, 20.0, 1.0])
     m = frame_transform(ta, oa, tb, ob)
     assert np.allclose(to_input_frame(apply_transform(m, p), tb, ob), to_input_frame(p, ta, oa))
+
+
+# ----------------------------------------------------------------------------- sloped tops
+def _gable(eave=1.0, width=8.0):
+    """Two roof planes over y in [0, width], slope 1, eaves at z = ``eave``: z = eave + y and
+    z = eave + width - y."""
+    from engine.geometry.sloped import RoofPlane
+
+    r2 = np.sqrt(2.0)
+    return [RoofPlane((0.0, -1 / r2, 1 / r2), eave / r2), RoofPlane((0.0, 1 / r2, 1 / r2), (eave + width) / r2)]
+
+
+def test_sloped_prism_under_a_gable_roof():
+    from engine.geometry.mesh import orient_outward
+    from engine.geometry.sloped import sloped_prism
+
+    fp = [(0, 0), (10, 0), (10, 8), (0, 8)]
+    g = sloped_prism(fp, 0.0, 4.0, _gable())  # flat top at 4 m between y = 3 and 5
+    assert g.volume() == pytest.approx(10 * (8 * 1 + 2 * (0.5 * 3 * 3) + 2 * 3))
+    assert g.plan_area_perimeter() == pytest.approx((80.0, 36.0))
+    assert g.footprint() is None and g.bounds[1, 2] == pytest.approx(4.0)
+    v, t = g.triangles()
+    assert np.array_equal(orient_outward(v, t), t)  # closed and outward
+    # an L-shaped room under the same roof: the volume is the integral of the height
+    L = [(0, 0), (10, 0), (10, 2), (2, 2), (2, 8), (0, 8)]
+    g = sloped_prism(L, 0.0, 10.0, _gable())
+    h = lambda y: 1 + 4 - abs(y - 4)  # noqa: E731
+    ys = (np.arange(8000) + 0.5) / 1000
+    width = np.where(ys < 2, 10.0, 2.0)
+    assert g.volume() == pytest.approx(float(np.sum(width * h(ys)) / 1000), rel=1e-4)
+    # no plane below the top over the room, or a roof reaching the floor: no cut
+    assert sloped_prism(fp, 0.0, 0.5, _gable()) is None
+    assert sloped_prism(fp, 0.0, 4.0, _gable(eave=0.0)) is None
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_roof_planes_from_noisy_undersides(seed):
+    from engine.grammar.roof import roof_planes
+
+    rng = np.random.default_rng(seed)
+    planes = _gable()
+    xy = rng.uniform([0, 0], [10, 8], (20000, 2))
+    south = xy[:, 1] < 4
+    z = np.where(south, planes[0].z(xy[:, 0], xy[:, 1]), planes[1].z(xy[:, 0], xy[:, 1]))
+    xyz = np.column_stack([xy, z + rng.normal(0, 0.005, len(xy))])
+    n = np.where(south[:, None], planes[0].normal, planes[1].normal) * rng.choice([-1, 1], (len(xy), 1))
+    n = n + rng.normal(0, 0.03, n.shape)
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    clutter = np.column_stack([rng.uniform(0, 10, (300, 2)), rng.uniform(1, 3, 300)])
+    cn = rng.normal(0, 1, (300, 3))
+    cn /= np.linalg.norm(cn, axis=1)[:, None]
+    fits = roof_planes(np.vstack([xyz, clutter]), np.vstack([n, cn]), spacing=0.06, buffer=0.03)  # 250 points per m²
+    assert len(fits) == 2 and all(f.area == pytest.approx(40.0, rel=0.1) for f in fits)
+    for p in planes:  # each true plane found: normal within 1°, height within 1 cm at the room's middle
+        best = max(fits, key=lambda f: abs(float(np.dot(f.plane.normal, p.normal))))
+        assert abs(float(np.dot(best.plane.normal, p.normal))) >= np.cos(np.radians(1.0))
+        assert abs(float(best.plane.z(5.0, 4.0) - p.z(5.0, 4.0))) <= 0.01

@@ -67,6 +67,13 @@ def test_fzk_haus_attic_and_void():
     sc, m, r = _run("fzk_haus")
     attic, ground = r["per_storey"][1], r["per_storey"][0]
     assert attic["matched"] == 1 and attic["ious"][0] >= 0.95  # the "Galerie" under two roof slabs (0.99)
+    # its body follows the two roof planes: volume 217.5 m³ in the IFC (218.3 on seed 3; a box
+    # up to the ridge held 360 m³), 5 % margin
+    true_attic = next(s for s in sc.truth.spaces if s.name == "Galerie")
+    up = [s for s in m.spaces if s.storey == 1]
+    assert len(up) == 1 and up[0].attributes.get("sloped_top") is True
+    assert abs(up[0].geometry.volume() - true_attic.geometry.volume()) <= 0.05 * true_attic.geometry.volume()
+    assert up[0].geometry.footprint() is None  # no prism: the IFC writes a Brep
     # the open plan (living room, hall with the stair, kitchen) under the double-height void
     k = next(i for i, g in enumerate(ground["true_groups"]) if "Flur" in g)
     assert ground["ious"][k] >= 0.9  # 0.98 on seed 0 (0.69 before the void rule)
@@ -75,8 +82,9 @@ def test_fzk_haus_attic_and_void():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="side faces of the attic: the space is a box up to the ridge, not following the "
-                          "roof planes; seed 0 measures completeness 0.91, correctness 0.75", strict=False)
+@pytest.mark.xfail(reason="side faces: seed 2 measures completeness 0.99, correctness 0.94 (0.75 while the attic "
+                          "was a box up to the ridge): the hall and the living room, open under a beam, are "
+                          "modelled as two rooms with a 0.24 m gap", strict=False)
 def test_fzk_haus_side_faces():
     sc, m, _ = _run("fzk_haus")
     c, k = _walls(sc, m)
@@ -137,7 +145,10 @@ def test_duplex_party_wall_is_modelled():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="side faces: seed 0 measures completeness 0.57, correctness 0.85", strict=False)
+@pytest.mark.xfail(reason="side faces: seed 2 measures completeness 0.72, correctness 0.85 (TLS; 0.57 before the "
+                          "Duplex's inward-wound IFC faces were turned out and open plans' virtual boundaries "
+                          "left out); missed: closets and alcoves barely seen, faces of the stairwells (one space "
+                          "through both levels in the truth)", strict=False)
 def test_duplex_side_faces():
     sc, m, _ = _run("duplex")
     c, k = _walls(sc, m)
