@@ -390,7 +390,8 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                 support = {f"ipof_f{q}": float(v) for q, v in enumerate(f)}
                 support.update(ipof_top=float(f[1]), ipof_bottom=float(f[0]), ipof_sides=float(sides))
                 above = k + 1 < nz and types[i, j, k + 1] == ShapeType.INTERIOR
-                typ, line = classify(support, tx or ty, above, params.tau)
+                typ, line = classify(support, tx or ty, above, params.tau, on_floor=k == 0,
+                                     min_evidence=params.min_room_evidence)
                 types[i, j, k] = typ
                 sid = f"s{storey}_c{i:03d}_{j:03d}_{k:02d}"
                 lo, hi = (X[i], Y[j], Z[k]), (X[i + 1], Y[j + 1], Z[k + 1])

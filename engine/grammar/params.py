@@ -250,6 +250,10 @@ class ManhattanParams:
     """A storey whose upper half holds this many times more sloped points than horizontal
     points at its top level has a sloped top (an attic): its roof undersides stand for the
     ceiling."""
+    min_room_evidence: Ratio = 0.1
+    """A cuboid on the floor whose top is seen but whose floor and every side are covered at
+    most this much is no room part (a window head's soffit, an eave seen through glazing);
+    0: the thesis's rule (a seen top alone makes it interior)."""
     min_roof_area: SquareMetres = 2.0
     """A roof plane under which attic rooms are cut needs this much plan area of points."""
     level_cell: Metres = 0.25

@@ -47,7 +47,8 @@ _CORRIDOR_ASPECT, _CORRIDOR_WIDTH = 3.0, 2.5
 
 
 # --------------------------------------------------------------------------- rule 2
-def classify(support: dict, thin: bool, above_interior: bool, tau: float) -> tuple[ShapeType, str]:
+def classify(support: dict, thin: bool, above_interior: bool, tau: float, *,
+             on_floor: bool = False, min_evidence: float = 0.0) -> tuple[ShapeType, str]:
     """Rule 2, classify ``A → A[type]``.
 
     Parameters
@@ -56,6 +57,8 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float) -> tup
     thin : its smaller horizontal size is at most the maximum wall thickness.
     above_interior : its top face touches a shape already typed interior.
     tau : τ.
+    on_floor, min_evidence : the part stands on the storey's floor; a seen top with at most
+        ``min_evidence`` of floor under it and of wall on every side is no room (below).
 
     Returns the type and the log line that says why.
 
@@ -65,7 +68,11 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float) -> tup
       wall. (docs/method.md §2: thin and IPoF(sides) ≥ τ. The extra "top not seen" conditions keep
       a thin slice of a room between a wall and a cupboard, whose top is ceiling or the
       room above, from becoming a wall.)
-    * IPoF(top) ≥ τ, or the top touches an interior shape → interior space;
+    * IPoF(top) ≥ τ, or the top touches an interior shape → interior space; but a part on
+      the floor whose top alone is seen — IPoF(bottom) and the IPoF of each side at most
+      ``min_evidence`` — is exterior: the ceiling evidence is a window's head soffit in a
+      glazed exterior wall, or an eave seen through the glazing, with no floor and no wall
+      under it (issue 19: rooms never extend past the glazed envelope);
     * otherwise → exterior space.
     """
     sides, top = support.get("ipof_sides", 0.0), support.get("ipof_top", 0.0)
@@ -73,6 +80,10 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float) -> tup
         return ShapeType.WALL, (f"classify: thin, IPoF(sides)={sides:.2f} >= tau={tau:g}, "
                                 f"IPoF(top)={top:.2f} < tau -> wall")
     if top >= tau:
+        if on_floor and min_evidence > 0 and support.get("ipof_bottom", 1.0) <= min_evidence and \
+                all(support.get(f"ipof_f{q}", 1.0) <= min_evidence for q in range(2, 6)):
+            return ShapeType.EXTERIOR, (f"classify: IPoF(top)={top:.2f} >= tau={tau:g} but no floor and no side "
+                                        f"seen (<= {min_evidence:g}) -> exterior (a soffit or eave, not a room)")
         return ShapeType.INTERIOR, f"classify: IPoF(top)={top:.2f} >= tau={tau:g} -> interior"
     if above_interior:
         return ShapeType.INTERIOR, (f"classify: IPoF(top)={top:.2f} < tau={tau:g} "

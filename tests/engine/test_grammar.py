@@ -211,6 +211,14 @@ def test_classify_rule_conditions():
     assert classify({"ipof_sides": 0.0, "ipof_top": 0.5}, False, False, t)[0] == ShapeType.INTERIOR
     typ, line = classify({"ipof_sides": 0.0, "ipof_top": 0.1}, False, False, t)
     assert typ == ShapeType.EXTERIOR and "0.10 < tau=0.3" in line
+    # a seen top with no floor and no side under it, on the floor: a soffit or an eave
+    soffit = {"ipof_top": 0.35, "ipof_bottom": 0.03, "ipof_f2": 0.0, "ipof_f3": 0.05, "ipof_f4": 0.0, "ipof_f5": 0.0}
+    typ, line = classify(soffit, False, False, t, on_floor=True, min_evidence=0.1)
+    assert typ == ShapeType.EXTERIOR and "soffit" in line
+    assert classify(soffit, False, False, t, on_floor=False, min_evidence=0.1)[0] == ShapeType.INTERIOR  # upper layer
+    assert classify(soffit, False, False, t)[0] == ShapeType.INTERIOR  # the thesis's rule (min_evidence 0)
+    for key, v in (("ipof_bottom", 0.2), ("ipof_f3", 0.4)):  # floor or a wall under it: a room part
+        assert classify({**soffit, key: v}, False, False, t, on_floor=True, min_evidence=0.1)[0] == ShapeType.INTERIOR
 
 
 def test_union_of_boxes():

@@ -119,6 +119,15 @@ def test_duplex_iou_and_envelope():
 
 
 @pytest.mark.slow
+def test_duplex_glazing_keeps_rooms_inside_mobile():
+    # a walking scanner looks through the living rooms' glazed fronts onto the terraces: a window
+    # head's soffit read as ceiling used to carry a room 0.6 m past the wall (0.39 m² on seed 2,
+    # 1.0-1.2 m² on seeds 3 and 4); a ceiling with no floor and no wall under it is no room
+    sc, m, r = _run("duplex", "mobile")
+    assert r["outside_m2"] <= 0.1 and r["recall"] >= 0.95, r  # 0.0 and 1.0 on seed 2
+
+
+@pytest.mark.slow
 @pytest.mark.xfail(reason="seed 2 TLS: on level 2 a room spans the party wall over y -6.85..-0.42 (7.7 m² of "
                           "room on its 9.3 m²); seed 0 models it as two walls with a gap and a 0.7 m wall",
                    strict=False)
