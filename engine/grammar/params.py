@@ -250,6 +250,9 @@ class ManhattanParams:
     """A storey whose upper half holds this many times more sloped points than horizontal
     points at its top level has a sloped top (an attic): its roof undersides stand for the
     ceiling."""
+    min_passage_width: Metres = 2.0
+    """A thin unseen cuboid with floor under it between two interiors, at least this long, is a
+    wide opening under a beam or lintel that joins them (narrower: a door); 0 turns it off."""
     min_room_evidence: Ratio = 0.1
     """A cuboid on the floor whose top is seen but whose floor and every side are covered at
     most this much is no room part (a window head's soffit, an eave seen through glazing);

@@ -283,3 +283,39 @@ def test_parameters_from_data_and_thesis_table():
     assert (t.bin_size, t.max_wall_thickness, t.shape_buffer) == (0.05, 0.5, 0.05)
     with pytest.raises(ValueError):
         ManhattanParams.spec_table("nope")
+
+
+def _row_of_cuboids(widths, thin_len, bottom, faces, types):
+    """Three cuboids along y — room, a 0.24 m band, room — ``thin_len`` long in x (the band
+    between the rooms), as ``place_storey`` leaves them before its passage pass."""
+    from engine.grammar.geometry import box_of
+    from engine.model import Shape
+
+    ys = np.cumsum([0.0] + list(widths))
+    shapes, grid = {}, np.empty((1, 3, 1), dtype=object)
+    for j, t in enumerate(types):
+        sup = {"ipof_bottom": bottom if j == 1 else 0.9, **({f"ipof_f{q}": v for q, v in faces.items()} if j == 1 else {})}
+        shapes[(0, j, 0)] = Shape(id=f"c{j}", type=t, geometry=box_of((0, ys[j], 0), (thin_len, ys[j + 1], 2.5)),
+                                  grid=(0, j, 0), support=sup, attributes={"thin_axis": 1 if j == 1 else None})
+        grid[0, j, 0] = t
+    return shapes, grid
+
+
+@pytest.mark.parametrize("length, bottom, face, expect", [
+    (3.4, 0.99, 0.08, ShapeType.INTERIOR),   # FZK-Haus: 3.4 m under a 0.24 m beam, floor seen -> one open plan
+    (0.9, 0.99, 0.08, ShapeType.EXTERIOR),   # a door's width: the rooms stay apart
+    (3.4, 0.05, 0.08, ShapeType.EXTERIOR),   # no floor under it: a wall hidden behind furniture
+    (3.4, 0.99, 0.45, ShapeType.EXTERIOR),   # a face of it seen: a wall with a low opening
+])
+def test_wide_passage_joins_rooms(length, bottom, face, expect):
+    from engine.grammar.manhattan import _wide_passages
+
+    I, E = ShapeType.INTERIOR, ShapeType.EXTERIOR
+    shapes, types = _row_of_cuboids((4.0, 0.24, 1.5), length, bottom, {2: face, 4: 0.08}, (I, E, I))
+    _wide_passages(shapes, types, ManhattanParams())
+    assert shapes[(0, 1, 0)].type == expect and types[0, 1, 0] == expect
+    if expect == I:
+        assert "passage" in shapes[(0, 1, 0)].log[-1]
+    shapes, types = _row_of_cuboids((4.0, 0.24, 1.5), length, bottom, {2: face, 4: 0.08}, (I, E, E))
+    _wide_passages(shapes, types, ManhattanParams())  # outside on one side: never a passage
+    assert shapes[(0, 1, 0)].type == E

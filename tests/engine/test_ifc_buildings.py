@@ -82,11 +82,12 @@ def test_fzk_haus_attic_and_void():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="side faces: seed 2 measures completeness 0.99, correctness 0.94 (0.75 while the attic "
-                          "was a box up to the ridge): the hall and the living room, open under a beam, are "
-                          "modelled as two rooms with a 0.24 m gap", strict=False)
-def test_fzk_haus_side_faces():
-    sc, m, _ = _run("fzk_haus")
+@pytest.mark.parametrize("noise", ["tls", "mobile"])
+def test_fzk_haus_side_faces(noise):
+    # seed 2 measures completeness 0.99 / 0.99 and correctness 0.99 / 0.99 (TLS / mobile);
+    # correctness was 0.75 while the attic was a box up to the ridge and 0.94 while the hall and
+    # the living room, open under a beam, were two rooms with a gap (margin 0.04 to the target)
+    sc, m, _ = _run("fzk_haus", noise)
     c, k = _walls(sc, m)
     assert c >= 0.95 and k >= 0.95, (c, k)
 
