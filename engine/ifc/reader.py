@@ -694,16 +694,13 @@ def _polyhedron(v: np.ndarray, tri: np.ndarray, prm: IfcReadParams) -> Optional[
     """A vertical prism when the triangle mesh is one, else the triangles themselves."""
     if len(tri) == 0:
         return None
-    a = v[tri[:, 1]] - v[tri[:, 0]]
-    b = v[tri[:, 2]] - v[tri[:, 0]]
-    cr = np.cross(a, b)
-    area2 = np.linalg.norm(cr, axis=1)
-    keep = area2 > _MIN_DOUBLE_AREA
-    tri, cr, area2 = tri[keep], cr[keep], area2[keep]
+    cross = lambda t: np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])  # noqa: E731
+    tri = tri[np.linalg.norm(cross(tri), axis=1) > _MIN_DOUBLE_AREA]
     if len(tri) == 0:
         return None
     tri = orient_outward(v, tri)  # some IFC solids wind faces inwards
-    cr = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+    cr = cross(tri)
+    area2 = np.linalg.norm(cr, axis=1)
     prism = _as_prism(v, tri, cr / area2[:, None], area2 / 2, prm)
     if prism is not None:
         return prism
