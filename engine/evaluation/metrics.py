@@ -77,10 +77,10 @@ class EvaluationParams:
     """A reference (source) surface whose covered share is at most this is missing
     (redundant)."""
     shared_face_gap: float = 0.03
-    """Faces of two reference spaces facing each other at most this far apart (metres) are a
-    virtual boundary of an open plan, not a surface: they are left out of the reference
-    (:func:`~engine.evaluation.patches.drop_shared_faces`); 0 keeps them. The source's faces
-    are all kept: where it separates two spaces it claims a surface."""
+    """Faces of two spaces facing each other at most this far apart (metres) are a virtual
+    boundary of an open plan, not a surface: they are left out of the reference and of a
+    source model, except where one of the source's walls stands between them (it claims a
+    wall there) (:func:`~engine.evaluation.patches.drop_shared_faces`); 0 keeps them."""
 
     def __post_init__(self):
         b = tuple(float(x) for x in self.buffers)
@@ -236,6 +236,31 @@ def _union_area(pieces) -> float:
     return float(safe_union(pieces).area)
 
 
+def _walled(model: BuildingModel):
+    """``point -> bool``: one of the model's active walls holds the (3,) point (2 cm slack)."""
+    from shapely import STRtree, prepare
+    from shapely.geometry import Point, Polygon
+
+    items = []
+    for w in model.walls:
+        if not w.active:
+            continue
+        fp = w.geometry.footprint()
+        if fp is None:
+            continue
+        poly = Polygon(fp).buffer(0.02)
+        prepare(poly)
+        items.append((poly, w.bounds[0, 2] - 0.02, w.bounds[1, 2] + 0.02))
+    if not items:
+        return None
+    tree = STRtree([g for g, _, _ in items])
+
+    def walled(p) -> bool:
+        pt = Point(float(p[0]), float(p[1]))
+        return any(items[i][1] <= p[2] <= items[i][2] and items[i][0].contains(pt) for i in tree.query(pt))
+    return walled
+
+
 def _visible_mask(ref: list, visible) -> np.ndarray:
     if visible is None:
         return np.ones(len(ref), dtype=bool)
@@ -277,6 +302,8 @@ def evaluate(source, reference, params: Optional[EvaluationParams] = None, *, vi
             log.info("moving the source into the reference's frame (their transforms/offsets differ)")
             source = transform_model(source, m)
     src = _as_patches(source, params, "source")
+    if isinstance(source, BuildingModel):
+        src = drop_shared_faces(src, params.shared_face_gap, params.max_angle, walled=_walled(source))
     ref = drop_shared_faces(_as_patches(reference, params, "reference"), params.shared_face_gap, params.max_angle)
     if not ref:
         raise InputError(f"the reference has no surfaces of types {params.surface_types} and kinds {params.groups}")

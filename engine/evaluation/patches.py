@@ -217,7 +217,8 @@ def merge_coplanar(patches: Sequence[PlanarPatch]) -> list[PlanarPatch]:
     return out
 
 
-def drop_shared_faces(patches: Sequence[PlanarPatch], gap: float, max_angle: float) -> list[PlanarPatch]:
+def drop_shared_faces(patches: Sequence[PlanarPatch], gap: float, max_angle: float,
+                      walled=None) -> list[PlanarPatch]:
     """The patches without their parts that face another shape's face across at most ``gap``.
 
     Two spaces of an open plan (a living room and its kitchen, a corridor and its stair)
@@ -226,6 +227,8 @@ def drop_shared_faces(patches: Sequence[PlanarPatch], gap: float, max_angle: flo
     further apart than ``gap``). For each pair of patches of different shapes with opposite
     normals (within ``max_angle``, radians) and planes at most ``gap`` metres apart, the part
     of each lying on the other is cut away; a patch left with less than ``MIN_AREA`` is dropped.
+    ``walled(point) -> bool`` ((3,) metres): a wall stands there, so the two faces meeting
+    there are kept (a model that lost a wall's thickness still claims a wall).
     """
     patches = list(patches)
     if gap <= 0 or len(patches) < 2:
@@ -247,6 +250,8 @@ def drop_shared_faces(patches: Sequence[PlanarPatch], gap: float, max_angle: flo
                 continue
             ab = overlap_on(a, b, gap)  # b's part on a's plane, within a
             if ab is None:
+                continue
+            if walled is not None and walled(a.to3d(np.asarray(ab.representative_point().coords))[0]):
                 continue
             cuts.setdefault(i, []).append(ab)
             ba = overlap_on(b, a, gap)

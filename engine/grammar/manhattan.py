@@ -420,13 +420,16 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
 
 
 def _wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams) -> None:
-    """Wide openings under a beam or a lintel join their rooms (issue 19: open plans), in place.
+    """Wide openings under a beam or a lintel (issue 19: open plans), in place.
 
     A thin exterior cuboid on the floor, at least ``min_passage_width`` long, between two
     interior cuboids across its thin axis, with the floor seen under it (IPoF(bottom) ≥ τ: no
     wall stands there) and neither face to those rooms seen (IPoF < τ), is the passage
-    between two parts of one open plan — its top is a beam or a lintel, not a ceiling — and
-    becomes interior. Doors (narrower) keep their rooms apart."""
+    between two parts of one open plan — its top is a beam or a lintel, not a ceiling. It
+    becomes interior and joins the narrower side; its face toward the wider side is an open
+    boundary (``attributes["open_face"]``): the spaces split there ("split it at a beam")
+    and are connected without a wall (an IfcVirtualElement). Doors (narrower) keep their
+    rooms apart."""
     if params.min_passage_width <= 0:
         return
     tau = params.tau
@@ -441,11 +444,14 @@ def _wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams) -> 
                 any(s.support.get(f"ipof_f{q}", 1.0) >= tau for q in faces) or \
                 not all(q in shapes and types[q] == ShapeType.INTERIOR for q in nb):
             continue
+        # it joins the narrower side (a hall, a corridor); the open boundary is toward the wider
+        wide = int(np.argmax([float(np.ptp(shapes[q].geometry.bounds[:, ax])) for q in nb]))
         types[i, j, k] = ShapeType.INTERIOR
         shapes[(i, j, k)] = s.logged(
             f"classify: {size[1 - ax]:.2f} m wide passage between two interiors, floor seen "
-            f"(IPoF(bottom)={s.support['ipof_bottom']:.2f}), no wall -> interior", type=ShapeType.INTERIOR,
-            terminal=False)
+            f"(IPoF(bottom)={s.support['ipof_bottom']:.2f}), no wall -> interior, open to {shapes[nb[wide]].id}",
+            type=ShapeType.INTERIOR, terminal=False,
+            attributes={**s.attributes, "open_face": faces[wide]})
 
 
 def _open_voids(shapes: dict, types: np.ndarray, xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame,

@@ -98,6 +98,12 @@ def is_part(s: Shape) -> bool:
     return s.grid is not None or bool(s.attributes.get("part"))
 
 
+def _open_boundary(a: Shape, fa: int, b: Shape, fb: int) -> bool:
+    """The face shared by parts ``a`` and ``b`` is an open boundary between two spaces of an
+    open plan (``attributes["open_face"]``, a passage under a beam)."""
+    return a.attributes.get("open_face") == fa or b.attributes.get("open_face") == fb
+
+
 def _face_ipof(s: Shape, face: int) -> float:
     return float(s.support.get(f"ipof_f{face}", 0.0))
 
@@ -145,7 +151,10 @@ def part_relations(parts: list[Shape], tau: float, touching=None) -> tuple[list[
         rel.append(Relation("adjacency", a.id, b.id))
         if a.type == b.type and a.type in _SPACE_TYPES:
             f = max(_face_ipof(a, t.fa), _face_ipof(b, t.fb))
-            if f < tau:
+            if _open_boundary(a, t.fa, b, t.fb):  # split there, connected without a wall
+                if a.type == ShapeType.INTERIOR:
+                    rel.append(Relation("connectivity", a.id, b.id))
+            elif f < tau:
                 connected.append((a.id, b.id))
                 if a.type == ShapeType.INTERIOR:
                     rel.append(Relation("connectivity", a.id, b.id))
@@ -322,6 +331,8 @@ def space_relations(parts: list[Shape], top: dict, doors: list[Shape],
         if (a.type in _SPACE_TYPES and b.type in _SPACE_TYPES and ShapeType.INTERIOR in (a.type, b.type)
                 and top[a.id] != top[b.id]):
             rel.append(Relation("adjacency", top[a.id], top[b.id]))
+            if a.type == b.type and _open_boundary(a, t.fa, b, t.fb):
+                rel.append(Relation("connectivity", top[a.id], top[b.id]))
     for wid, faces in sides.items():
         w = by_id[wid]
         normals = {f: w.geometry.face_normal(f) for f in faces}

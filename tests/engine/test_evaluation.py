@@ -221,6 +221,15 @@ def test_open_plan_boundary_is_no_surface():
     kept = evaluate(one, open_plan, EvaluationParams(shared_face_gap=0.0))
     share = 2 * (9 + 6) / (2 * (9 + 6) + 2 * 6)  # perimeter walls / all truth wall faces
     assert abs(kept.curve("completeness", "wall")[-1] - share) <= 0.01
+    # a model split the same way without a wall: its shared faces are no surface either
+    res = evaluate(open_plan, open_plan)
+    assert res.curve("correctness", "wall")[-1] >= 0.99 and res.curve("completeness", "wall")[-1] >= 0.99
+    # ... but where the model has a wall there it claims one: those faces count
+    from engine.model import Shape, ShapeType
+    wall = Shape(id="w", type=ShapeType.WALL, geometry=Polyhedron.box((0.0, 4.97, 0.0), (6.0, 5.03, H)))
+    claimed = open_plan.with_(shapes=open_plan.shapes + (wall,))
+    res = evaluate(claimed, open_plan)
+    assert abs(res.curve("correctness", "wall")[-1] - share) <= 0.01
     walled = room_model({"Living": (0.0, 0.0, 6.0, 4.95), "Kitchen": (0.0, 5.05, 6.0, 9.0)})
     res = evaluate(one, walled)
     assert sum(r.kind == "wall" for r in res.reference) == 8

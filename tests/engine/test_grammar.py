@@ -314,8 +314,8 @@ def test_wide_passage_joins_rooms(length, bottom, face, expect):
     shapes, types = _row_of_cuboids((4.0, 0.24, 1.5), length, bottom, {2: face, 4: 0.08}, (I, E, I))
     _wide_passages(shapes, types, ManhattanParams())
     assert shapes[(0, 1, 0)].type == expect and types[0, 1, 0] == expect
-    if expect == I:
-        assert "passage" in shapes[(0, 1, 0)].log[-1]
+    if expect == I:  # it joins the narrower side; the open boundary faces the 4 m room (face -y)
+        assert "passage" in shapes[(0, 1, 0)].log[-1] and shapes[(0, 1, 0)].attributes["open_face"] == 2
     shapes, types = _row_of_cuboids((4.0, 0.24, 1.5), length, bottom, {2: face, 4: 0.08}, (I, E, E))
     _wide_passages(shapes, types, ManhattanParams())  # outside on one side: never a passage
     assert shapes[(0, 1, 0)].type == E

@@ -78,6 +78,12 @@ def test_fzk_haus_attic_and_void():
     # the open plan (living room, hall with the stair, kitchen) under the double-height void
     k = next(i for i, g in enumerate(ground["true_groups"]) if "Flur" in g)
     assert ground["ious"][k] >= 0.9  # 0.98 on seed 0 (0.69 before the void rule)
+    # the hall and the living room, open to each other under a beam: two spaces split at the beam,
+    # connected without a wall or a door (an IfcVirtualElement in the IFC)
+    names = {s.id: s.name for s in m.spaces}
+    open_links = {frozenset((r.a, r.b)) for r in m.relations
+                  if r.kind == "connectivity" and r.via is None and r.a in names and r.b in names}
+    assert len(open_links) == 1, open_links
     low = [s for s in m.spaces if s.attributes.get("confidence") is not None]
     assert low and all(0.5 <= s.attributes["confidence"] < 1.0 for s in low)  # ceiling partly unseen
 
@@ -162,10 +168,11 @@ def test_duplex_party_wall_is_modelled(noise):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="side faces: seed 2 measures completeness 0.72, correctness 0.85 (TLS; 0.57 before the "
-                          "Duplex's inward-wound IFC faces were turned out and open plans' virtual boundaries "
-                          "left out); missed: closets and alcoves barely seen, faces of the stairwells (one space "
-                          "through both levels in the truth)", strict=False)
+@pytest.mark.xfail(reason="side faces: seed 2 measures completeness 0.70, correctness 0.88 (TLS; 0.57 / 0.85 "
+                          "before the Duplex's inward-wound IFC faces were turned out and open plans' virtual "
+                          "boundaries left out); missed: closets and alcoves barely seen, faces of the stairwells "
+                          "(one space through both levels in the truth), partitions whose thickness is lost "
+                          "(the rooms meet without a wall)", strict=False)
 def test_duplex_side_faces():
     sc, m, _ = _run("duplex")
     c, k = _walls(sc, m)
