@@ -249,12 +249,12 @@ def drop_shared_faces(patches: Sequence[PlanarPatch], gap: float, max_angle: flo
             if j <= i or b.shape_id == a.shape_id or b.kind != a.kind:
                 continue
             ab = overlap_on(a, b, gap)  # b's part on a's plane, within a
+            ab = _open_part(a, ab, walled) if ab is not None and walled is not None else ab
             if ab is None:
-                continue
-            if walled is not None and walled(a.to3d(np.asarray(ab.representative_point().coords))[0]):
                 continue
             cuts.setdefault(i, []).append(ab)
             ba = overlap_on(b, a, gap)
+            ba = _open_part(b, ba, walled) if ba is not None and walled is not None else ba
             if ba is not None:
                 cuts.setdefault(j, []).append(ba)
     out = []
@@ -267,6 +267,25 @@ def drop_shared_faces(patches: Sequence[PlanarPatch], gap: float, max_angle: flo
             out.append(PlanarPatch(p.key, p.shape_id, p.face, p.kind, p.storey, p.shape_type, p.normal, p.rho,
                                    p.origin, p.u, p.v, rest, p.name))
     return out
+
+
+def _open_part(p: PlanarPatch, region, walled, step: float = 0.1):
+    """The part of ``region`` (in ``p``'s frame) where no wall stands (``walled(point)`` false
+    at the centres of a ``step`` grid over it), or None."""
+    from dataclasses import replace
+
+    xy = sample_patch_grid(replace(p, geom=region), step)
+    if len(xy) == 0:
+        return region
+    free = np.array([not walled(q) for q in p.to3d(xy)])
+    if free.all():
+        return region
+    if not free.any():
+        return None
+    h = step / 2 + 1e-9
+    cells = [shapely.box(x - h, y - h, x + h, y + h) for x, y in xy[free]]
+    part = safe_intersection(region, safe_union(cells))
+    return None if part.is_empty or part.area < MIN_AREA else part
 
 
 GRID = 1e-6

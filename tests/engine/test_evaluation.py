@@ -234,3 +234,16 @@ def test_open_plan_boundary_is_no_surface():
     res = evaluate(one, walled)
     assert sum(r.kind == "wall" for r in res.reference) == 8
     assert res.curve("completeness", "wall")[-1] <= share + 0.02
+
+
+def test_open_plan_boundary_partly_walled():
+    # the model splits a 6 x 9 m room at y = 5 with a wall over x 0..3 only: the walled half of
+    # its two faces there counts as surface, the open half does not
+    from engine.model import Shape, ShapeType
+
+    split = room_model({"Living": (0.0, 0.0, 6.0, 5.0), "Kitchen": (0.0, 5.0, 6.0, 9.0)})
+    wall = Shape(id="w", type=ShapeType.WALL, geometry=Polyhedron.box((0.0, 4.97, 0.0), (3.0, 5.03, H)))
+    res = evaluate(split.with_(shapes=split.shapes + (wall,)), room_model({"Room": ROOM}))
+    perimeter, claimed = 2 * (9 + 6), 2 * 3.0
+    assert abs(res.curve("correctness", "wall")[-1] - perimeter / (perimeter + claimed)) <= 0.01
+    assert res.curve("completeness", "wall")[-1] >= 0.99
