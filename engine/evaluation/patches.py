@@ -303,30 +303,27 @@ def _repair(g):
         return shapely.set_precision(g, GRID, mode="pointwise").buffer(0)
 
 
-def safe_intersection(a, b):
-    """``a ∩ b``; on a GEOS topology error (nearly degenerate input) retry on repaired
-    geometries snapped to a 1 µm grid; if that fails too, the overlap is counted as empty
-    (and logged)."""
+def _robust(op: str, a, b, fallback, what: str):
+    """``shapely.<op>(a, b)``; on a GEOS topology error (nearly degenerate input) retried on
+    repaired geometries snapped to a 1 µm grid; if that fails too, ``fallback`` (logged)."""
     try:
-        return a.intersection(b)
+        return getattr(shapely, op)(a, b)
     except shapely.errors.GEOSException:
         try:
-            return shapely.intersection(_repair(a), _repair(b), grid_size=GRID)
+            return getattr(shapely, op)(_repair(a), _repair(b), grid_size=GRID)
         except shapely.errors.GEOSException as e:
-            log.warning("overlay failed even after repair (%s); counted as no overlap", e)
-            return shapely.Polygon()
+            log.warning("%s failed even after repair (%s); %s", op, e, what)
+            return fallback
+
+
+def safe_intersection(a, b):
+    """``a ∩ b``, robust (:func:`_robust`): on failure the overlap is counted as empty."""
+    return _robust("intersection", a, b, shapely.Polygon(), "counted as no overlap")
 
 
 def safe_difference(a, b):
-    """``a − b``, robust like :func:`safe_intersection` (on failure ``a`` is kept whole)."""
-    try:
-        return a.difference(b)
-    except shapely.errors.GEOSException:
-        try:
-            return shapely.difference(_repair(a), _repair(b), grid_size=GRID)
-        except shapely.errors.GEOSException as e:
-            log.warning("difference failed even after repair (%s); nothing cut", e)
-            return a
+    """``a − b``, robust (:func:`_robust`): on failure ``a`` is kept whole."""
+    return _robust("difference", a, b, a, "nothing cut")
 
 
 def safe_union(geoms):
