@@ -15,6 +15,7 @@ import numpy as np
 from shapely.geometry import Polygon
 
 from ..model import Polyhedron
+from .polygon import polygon_parts
 
 __all__ = ["RoofPlane", "sloped_prism"]
 
@@ -52,14 +53,6 @@ def _below(box: Polygon, a: float, b: float, c: float) -> Polygon:
     return Polygon(out) if len(out) >= 3 else Polygon()
 
 
-def _parts(g) -> list:
-    if g.is_empty:
-        return []
-    if g.geom_type == "Polygon":
-        return [g] if g.area > 1e-6 else []
-    return [p for x in getattr(g, "geoms", []) for p in _parts(x)]
-
-
 def sloped_prism(footprint, z0: float, z1: float, planes: Sequence[RoofPlane], *,
                  min_height: float = 0.05) -> Optional[Polyhedron]:
     """The prism over ``footprint`` ((k, 2) metres, one simple ring) from ``z0`` up to
@@ -91,7 +84,7 @@ def sloped_prism(footprint, z0: float, z1: float, planes: Sequence[RoofPlane], *
             region = region.intersection(_below(box, ai - aj, bi - bj, ci - cj))
             if region.is_empty:
                 break
-        for part in _parts(region):
+        for part in (q for q in polygon_parts(region) if q.area > 1e-6):
             if part.interiors:
                 return None
             tops.append((part, i))

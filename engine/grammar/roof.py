@@ -57,10 +57,14 @@ def roof_planes(xyz: np.ndarray, normals: np.ndarray, *, spacing: float, buffer:
         tilt = np.arccos(np.clip(n[idx, 2], -1, 1))
         key = np.floor((az + np.pi) / np.radians(15.0)).astype(np.int64) * 64 + \
             np.floor(tilt / np.radians(10.0)).astype(np.int64)
-        keys, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
-        seed = n[idx[inv == int(np.argmax(counts))]].mean(axis=0)
+        _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+        fullest = idx[inv == int(np.argmax(counts))]
+        seed = n[fullest].mean(axis=0)
         seed /= np.linalg.norm(seed)
         along = idx[n[idx] @ seed >= cos_a]
+        if len(along) == 0:  # (a bin's members lie within 18° of each other: not expected)
+            left[fullest] = False
+            continue
         d = xyz[along] @ seed
         bins = np.floor((d - d.min()) / buffer).astype(np.int64)
         peak = np.argmax(np.bincount(bins))
@@ -70,7 +74,7 @@ def roof_planes(xyz: np.ndarray, normals: np.ndarray, *, spacing: float, buffer:
             left[along] = False
             continue
         c = xyz[inl].mean(axis=0)
-        w, vec = np.linalg.eigh(np.cov((xyz[inl] - c).T))
+        _, vec = np.linalg.eigh(np.cov((xyz[inl] - c).T))
         nn = vec[:, 0] * (1 if vec[2, 0] >= 0 else -1)
         if nn[2] < 1e-3 or nn @ seed < cos_a:
             left[inl] = False
