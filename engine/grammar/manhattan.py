@@ -645,7 +645,7 @@ def _with_sloped_ceiling(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFram
              "projected onto the top", frame.floor, ns, nf, top)
     low = (xyz[:, 2] > frame.floor + params.sloped_min_height) & (xyz[:, 2] <= top + d)
     under = np.flatnonzero(low & (nz >= params.sloped_normal_min) & (nz < cos_t))  # down to the eaves
-    cell = 2.0 * params.level_cell  # only over the storey's floor (not the roof seen from outside)
+    cell = params.level_cell  # only over the storey's floor (not the roof seen from outside)
     on_floor = _cell_lookup(xyz[(np.abs(xyz[:, 2] - frame.floor) <= d) & (nz >= cos_t), :2], cell)
     under = under[on_floor(np.floor(xyz[under, :2] / cell).astype(np.int64))]
     q = xyz[under].copy()
