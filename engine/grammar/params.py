@@ -254,8 +254,9 @@ class ManhattanParams:
     """A thin unseen cuboid with floor under it between two interiors, at least this long, is a
     wide opening under a beam or lintel that joins them (narrower: a door); 0 turns it off."""
     min_room_evidence: Ratio = 0.1
-    """A cuboid on the floor whose top is seen but whose floor and every side are covered at
-    most this much is no room part (a window head's soffit, an eave seen through glazing);
+    """A cuboid on the floor whose top is seen but whose floor and sides (all, or all but one
+    under a partial top) are covered at most this much is no room part (a window head's
+    soffit, an eave seen through glazing);
     0: the thesis's rule (a seen top alone makes it interior)."""
     min_roof_area: SquareMetres = 2.0
     """A roof plane under which attic rooms are cut needs this much plan area of points."""

@@ -69,10 +69,11 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float, *,
       a thin slice of a room between a wall and a cupboard, whose top is ceiling or the
       room above, from becoming a wall.)
     * IPoF(top) ≥ τ, or the top touches an interior shape → interior space; but a part on
-      the floor whose top alone is seen — IPoF(bottom) and the IPoF of each side at most
-      ``min_evidence`` — is exterior: the ceiling evidence is a window's head soffit in a
-      glazed exterior wall, or an eave seen through the glazing, with no floor and no wall
-      under it (issue 19: rooms never extend past the glazed envelope);
+      the floor whose top alone is seen — IPoF(bottom) at most ``min_evidence``, and no side
+      above it (or one, under a partial top, IPoF(top) < 2τ: a wall running on past the
+      glazing) — is exterior: the ceiling evidence is a window's head soffit in a glazed
+      exterior wall, or an eave seen through the glazing, with no floor and no walls under it
+      (issue 19: rooms never extend past the glazed envelope);
     * otherwise → exterior space.
     """
     sides, top = support.get("ipof_sides", 0.0), support.get("ipof_top", 0.0)
@@ -80,10 +81,12 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float, *,
         return ShapeType.WALL, (f"classify: thin, IPoF(sides)={sides:.2f} >= tau={tau:g}, "
                                 f"IPoF(top)={top:.2f} < tau -> wall")
     if top >= tau:
+        sides_seen = sum(support.get(f"ipof_f{q}", 1.0) > min_evidence for q in range(2, 6))
         if on_floor and min_evidence > 0 and support.get("ipof_bottom", 1.0) <= min_evidence and \
-                all(support.get(f"ipof_f{q}", 1.0) <= min_evidence for q in range(2, 6)):
-            return ShapeType.EXTERIOR, (f"classify: IPoF(top)={top:.2f} >= tau={tau:g} but no floor and no side "
-                                        f"seen (<= {min_evidence:g}) -> exterior (a soffit or eave, not a room)")
+                (sides_seen == 0 or (sides_seen == 1 and top < 2 * tau)):
+            return ShapeType.EXTERIOR, (f"classify: IPoF(top)={top:.2f} >= tau={tau:g} but no floor and "
+                                        f"{sides_seen} side(s) seen (> {min_evidence:g}) -> exterior "
+                                        "(a soffit or eave, not a room)")
         return ShapeType.INTERIOR, f"classify: IPoF(top)={top:.2f} >= tau={tau:g} -> interior"
     if above_interior:
         return ShapeType.INTERIOR, (f"classify: IPoF(top)={top:.2f} < tau={tau:g} "

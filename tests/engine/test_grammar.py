@@ -217,8 +217,13 @@ def test_classify_rule_conditions():
     assert typ == ShapeType.EXTERIOR and "soffit" in line
     assert classify(soffit, False, False, t, on_floor=False, min_evidence=0.1)[0] == ShapeType.INTERIOR  # upper layer
     assert classify(soffit, False, False, t)[0] == ShapeType.INTERIOR  # the thesis's rule (min_evidence 0)
-    for key, v in (("ipof_bottom", 0.2), ("ipof_f3", 0.4)):  # floor or a wall under it: a room part
-        assert classify({**soffit, key: v}, False, False, t, on_floor=True, min_evidence=0.1)[0] == ShapeType.INTERIOR
+    # one side seen (a wall running on past the glazing) under a partial top: still a soffit
+    assert classify({**soffit, "ipof_f5": 0.35}, False, False, t, on_floor=True, min_evidence=0.1)[0] == \
+        ShapeType.EXTERIOR
+    for change in ({"ipof_bottom": 0.2}, {"ipof_f3": 0.4, "ipof_f5": 0.4}, {"ipof_f3": 0.4, "ipof_top": 0.7}):
+        # floor under it, two walls, or one wall under a well seen ceiling: a room part
+        assert classify({**soffit, **change}, False, False, t, on_floor=True, min_evidence=0.1)[0] == \
+            ShapeType.INTERIOR
 
 
 def test_union_of_boxes():
