@@ -58,7 +58,8 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float, *,
     above_interior : its top face touches a shape already typed interior.
     tau : τ.
     on_floor, min_evidence : the part stands on the storey's floor; a seen top with at most
-        ``min_evidence`` of floor under it and of wall on every side is no room (below).
+        ``min_evidence`` of floor under it and of wall on its sides (all, or all but one under a
+        partial top) is no room (below); 0 turns that off.
 
     Returns the type and the log line that says why.
 
