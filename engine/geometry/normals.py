@@ -13,7 +13,7 @@ import numpy as np
 from ..threads import thread_cap
 from .kdtree import kdtree
 
-__all__ = ["knn_pca", "knn_normals"]
+__all__ = ["knn_pca", "knn_normals", "eigenvalues_3x3", "smallest_eigenpairs", "one_sided_normals"]
 
 
 def knn_pca(xyz: np.ndarray, k: int, query: Optional[np.ndarray] = None, *,
@@ -54,3 +54,111 @@ def knn_normals(xyz: np.ndarray, k: int, query: Optional[np.ndarray] = None, *,
     """(m, 3) float64 unit PCA normals (sign arbitrary) of the query points over their ``k``
     nearest neighbours in ``xyz`` (see :func:`knn_pca`)."""
     return knn_pca(xyz, k, query, workers=workers, tree=tree)[2][:, :, 0]
+
+
+def _eigen_parts(cov: np.ndarray):
+    """Entries (one row each) and ascending eigenvalues of symmetric 3×3 matrices (trigonometric
+    closed form), and where a matrix is a multiple of the identity."""
+    a = np.ascontiguousarray(np.asarray(cov, dtype=np.float64).reshape(-1, 9).T)  # one row per entry
+    a00, a11, a22, a01, a02, a12 = a[0], a[4], a[8], a[1], a[2], a[5]
+    q = (a00 + a11 + a22) / 3.0
+    b00, b11, b22 = a00 - q, a11 - q, a22 - q
+    p = np.sqrt((b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * (a01 * a01 + a02 * a02 + a12 * a12)) / 6.0)
+    iso = p <= 1e-12 * np.maximum(np.abs(q), 1e-300)
+    ps = np.where(iso, 1.0, p)
+    det = (b00 * (b11 * b22 - a12 * a12) - a01 * (a01 * b22 - a12 * a02) + a02 * (a01 * a12 - b11 * a02))
+    phi = np.arccos(np.clip(det / (2.0 * ps ** 3), -1.0, 1.0)) / 3.0
+    big = q + 2.0 * p * np.cos(phi)
+    small = q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0)
+    w = np.column_stack([small, 3.0 * q - big - small, big])
+    w[iso] = q[iso, None]
+    return (a00, a11, a22, a01, a02, a12), w, iso
+
+
+def eigenvalues_3x3(cov: np.ndarray) -> np.ndarray:
+    """(m, 3) ascending eigenvalues of (m, 3, 3) symmetric matrices, in closed form."""
+    return _eigen_parts(cov)[1]
+
+
+def smallest_eigenpairs(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (ascending) and the eigenvector of the smallest one of symmetric 3×3
+    matrices, in closed form (vectorised; a batched ``eigh`` costs 5× more on 1M matrices).
+
+    ``cov`` : (m, 3, 3) float64 symmetric. Returns ``(w, n)``: (m, 3) eigenvalues ascending,
+    (m, 3) unit eigenvectors of ``w[:, 0]`` (sign arbitrary; (0, 0, 1) where the matrix is
+    a multiple of the identity, every direction then being one).
+    """
+    (a00, a11, a22, a01, a02, a12), w, iso = _eigen_parts(cov)
+    small = w[:, 0]
+    # the eigenvector of the smallest eigenvalue: the largest cross product of two rows of a − λ I
+    m00, m11, m22 = a00 - small, a11 - small, a22 - small
+    r0 = (m00, a01, a02)
+    r1 = (a01, m11, a12)
+    r2 = (a02, a12, m22)
+
+    def cross(u, v):
+        return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+    n = cross(r0, r1)
+    best = n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
+    for c in (cross(r0, r2), cross(r1, r2)):
+        cn = c[0] * c[0] + c[1] * c[1] + c[2] * c[2]
+        better = cn > best
+        n = tuple(np.where(better, ci, ni) for ci, ni in zip(c, n))
+        best = np.where(better, cn, best)
+    good = ~iso & (best > 0)
+    scale = np.where(good, 1.0 / np.sqrt(np.where(good, best, 1.0)), 0.0)
+    n = np.column_stack([n[0] * scale, n[1] * scale, np.where(good, n[2] * scale, 1.0)])
+    return w, n
+
+
+def one_sided_normals(xyz: np.ndarray, view: np.ndarray, query: np.ndarray, k: int, radius: float, *,
+                      min_points: int = 5, tree=None, workers: Optional[int] = None) -> np.ndarray:
+    """PCA normals of the query points over the neighbours seen from the same side.
+
+    A surface is scanned from the side it faces: the two faces of a thin wall (or a table
+    top and its underside) are seen from opposite sides, so a neighbour whose direction to
+    its scanner points away from the query point's (``view_q · view_p ≤ 0``) lies on another
+    sheet. On sparse scans a neighbourhood of the normals' radius reaches across a 10–20 cm
+    partition, and its PCA normal then lies anywhere between the wall's and the scan lines'
+    (office_mw mobile, 300k points: 20 % of a partition's points faced it; 83 % with this).
+
+    Parameters
+    ----------
+    xyz : (n, 3) float64 — every point, metres.
+    view : (n, 3) float64 — unit vector from each point to its scanner (NaN rows: unknown;
+        such neighbours are left out, such query points get NaN).
+    query : (m,) int — the points to estimate.
+    k, radius : at most ``k`` nearest neighbours within ``radius`` metres (the normals'
+        hybrid neighbourhood).
+    min_points : fewer neighbours on the query's side than this give NaN (keep the other
+        estimate).
+    tree : a k-d tree of ``xyz`` to share, or None.
+
+    Returns (m, 3) float64 unit normals (sign arbitrary) or NaN rows.
+    """
+    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    query = np.asarray(query, dtype=np.int64)
+    out = np.full((len(query), 3), np.nan)
+    if len(query) == 0 or len(xyz) < min_points:
+        return out
+    tree = kdtree(xyz) if tree is None else tree
+    k = int(min(k, len(xyz)))
+    workers = thread_cap() if workers is None else workers
+    chunk = 100_000
+    for s in range(0, len(query), chunk):
+        qi = query[s:s + chunk]
+        d, nb = tree.query(xyz[qi], k=k, distance_upper_bound=radius, workers=workers)
+        d, nb = np.asarray(d).reshape(len(qi), k), np.asarray(nb).reshape(len(qi), k)
+        ok = np.isfinite(d)
+        nb = np.where(ok, nb, 0)
+        ok &= np.einsum("ikc,ic->ik", view[nb], view[qi]) > 0.0  # NaN compares False
+        cnt = ok.sum(axis=1)
+        pts = xyz[nb] - xyz[qi][:, None, :]
+        wt = ok[:, :, None]
+        mu = (pts * wt).sum(axis=1) / np.maximum(cnt, 1)[:, None]
+        c = (pts - mu[:, None, :]) * wt
+        _, n = smallest_eigenpairs(np.matmul(c.transpose(0, 2, 1), c))
+        n[cnt < min_points] = np.nan
+        out[s:s + chunk] = n
+    return out

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import EmptyCloudError, MissingDependencyError
 from ..geometry.kdtree import kdtree, spatial_order
-from ..geometry.normals import knn_normals
+from ..geometry.normals import eigenvalues_3x3, knn_normals, one_sided_normals
 from ..pointcloud import PointCloud
 from ..progress import Progress
 from .params import CleanParams, NormalParams
@@ -213,7 +213,8 @@ def _o3d():
 
 def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *, progress=None,
                      should_stop=None, tree=None) -> PointCloud:
-    """PCA normals over a hybrid radius / k-nearest neighbourhood (open3d).
+    """PCA normals over a hybrid radius / k-nearest neighbourhood (open3d), one-sided where
+    scanner positions are known.
 
     Parameters
     ----------
@@ -232,7 +233,11 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         (``n · (s − p) ≥ 0``); otherwise the sign is open3d's (arbitrary but consistent
         enough: nothing in this package depends on it). Points with fewer than 3 neighbours
         within the radius (sparse areas far from the scanner) get the PCA normal of their
-        ``fallback_knn`` nearest points.
+        ``fallback_knn`` nearest points. With scanner positions, a point whose neighbourhood
+        is far from planar and wide (``one_sided_planarity``, ``one_sided_reach``) gets the
+        normal of its neighbours seen from its side
+        (:func:`engine.geometry.normals.one_sided_normals`): on sparse scans the two faces of
+        a partition fall into one neighbourhood.
 
     Raises
     ------
@@ -246,20 +251,38 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     o3d = _o3d()
     order = spatial_order(cloud.xyz, params.radius)  # queries in space order: same normals, less time
     pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.xyz[order]))
-    pc.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=params.radius, max_nn=params.max_nn))
+    hybrid = o3d.geometry.KDTreeSearchParamHybrid(radius=params.radius, max_nn=params.max_nn)
+    pc.estimate_covariances(hybrid)  # kept: the normals below reuse them (open3d's own normals)
+    pc.estimate_normals(hybrid)
     nrm = np.empty((len(cloud), 3))
     nrm[order] = np.asarray(pc.normals, dtype=np.float64)
+    w = np.empty((len(cloud), 3))
+    w[order] = eigenvalues_3x3(np.asarray(pc.covariances))
+    del pc
     # open3d leaves exactly (0, 0, 1) when a neighbourhood has fewer than 3 points
     bad = (~np.isfinite(nrm).all(axis=1) | (np.linalg.norm(nrm, axis=1) < 0.5)
            | ((nrm[:, 0] == 0.0) & (nrm[:, 1] == 0.0)))
     if bad.any():  # too few neighbours within the radius (sparse, far from the scanner)
         nrm[bad] = knn_normals(cloud.xyz, params.fallback_knn, np.nonzero(bad)[0], tree=tree)
-    if params.orient_to_scanner:
-        s = _scanner_of_points(cloud)
-        if s is not None:
-            ok = np.isfinite(s).all(axis=1)
-            flip = ok & (np.einsum("ij,ij->i", nrm, s - cloud.xyz) < 0)
-            nrm[flip] *= -1.0
+    s = _scanner_of_points(cloud)
+    if s is not None and params.one_sided_planarity > 0:
+        # neighbourhoods far from planar and wide enough to reach a second sheet (the other
+        # face of a partition, a table's underside): again over the points seen from this side
+        redo = np.flatnonzero(~bad & (w[:, 0] > params.one_sided_planarity * w[:, 1])
+                              & (2.0 * w.sum(axis=1) >= params.one_sided_reach ** 2))
+        if len(redo):
+            view = s - cloud.xyz
+            with np.errstate(invalid="ignore", divide="ignore"):  # a point at its scanner: NaN, left out
+                view /= np.linalg.norm(view, axis=1, keepdims=True)
+            tree = kdtree(cloud.xyz) if tree is None else tree
+            n1 = one_sided_normals(cloud.xyz, view, redo, params.max_nn, params.radius, tree=tree)
+            got = np.isfinite(n1).all(axis=1)
+            nrm[redo[got]] = n1[got]
+            log.debug("normals: %d of %d points re-estimated from their side", int(got.sum()), len(cloud))
+    if params.orient_to_scanner and s is not None:
+        ok = np.isfinite(s).all(axis=1)
+        flip = ok & (np.einsum("ij,ij->i", nrm, s - cloud.xyz) < 0)
+        nrm[flip] *= -1.0
     p(1.0, "normals done")
     return cloud.with_(normals=nrm.astype(np.float32))
 

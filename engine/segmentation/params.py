@@ -78,6 +78,15 @@ class NormalParams:
     orient_to_scanner: Flag = True
     """Flip normals to face the scanner of each point when scanner positions are known
     (``cloud.scanner_positions`` with ``cloud.scan_index``, or a single position)."""
+    one_sided_planarity: Ratio = 0.1
+    """With scanner positions, a point whose neighbourhood is far from planar (smallest over
+    middle eigenvalue above this) and reaches ``one_sided_reach`` is estimated again over the
+    neighbours seen from its side (:func:`engine.geometry.normals.one_sided_normals`): on
+    sparse scans a neighbourhood spans both faces of a partition. 0: never."""
+    one_sided_reach: Metres = 0.10
+    """Only neighbourhoods at least this wide (radius √(2 · trace) of their covariance,
+    metres) are estimated again: partitions are about 10 cm thick or more, so a narrower
+    neighbourhood cannot reach the other face (and a noisy dense scan keeps its cost)."""
 
 
 @dataclass(frozen=True)
