@@ -602,7 +602,8 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
     model = derive_topology(model, params.tau)
     n_spaces = len(model.spaces)
     model = reject_implausible_spaces(model, params.min_space_width, params.min_space_area,
-                                      params.min_space_height, params.tau)
+                                      params.min_space_height, params.tau,
+                                      min_floor_evidence=params.min_room_evidence)
     model = _ceiling_confidence(model)
     for si, fits in roofs.items():
         model = slope_spaces(model, si, fits, spacing=spacing)

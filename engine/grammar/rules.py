@@ -429,7 +429,7 @@ def _equivalent_width(area: float, perimeter: float) -> float:
 
 
 def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: float, min_height: float,
-                              tau: Optional[float] = None) -> BuildingModel:
+                              tau: Optional[float] = None, *, min_floor_evidence: float = 0.0) -> BuildingModel:
     """Evidence rule for spaces (issue 19), a reclassification of parts followed by
     :func:`derive_topology`:
 
@@ -437,7 +437,12 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
       twice its area over its perimeter for other shapes) is the gap between the two faces of
       one wall (doubled wall lines, a party wall): its parts become wall;
     * one lower than ``min_height`` (a band between two ceiling levels) or smaller than
-      ``min_area`` is not a room: its parts become exterior.
+      ``min_area`` is not a room: its parts become exterior;
+    * one standing on its storey's floor whose floor is seen under none of its parts (every
+      part's bottom IPoF at most ``min_floor_evidence``; 0 turns this off) is the inside of
+      furniture up to near the ceiling (a wardrobe whose front the grid cut at a wall line
+      elsewhere; its top is the ceiling seen above it): its parts become exterior. A room
+      seen through a door shows some floor.
 
     Models without parts are returned unchanged.
     """
@@ -459,6 +464,10 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
             kind, why = ShapeType.WALL, f"{width:.2f} m wide < {min_width} m: the gap inside a wall"
         elif height < min_height or area < min_area:
             kind, why = ShapeType.EXTERIOR, f"{area:.2f} m², {height:.2f} m high: too small or low for a room"
+        elif min_floor_evidence > 0 and all(m.grid is not None and m.grid[2] == 0
+                                            and float(m.support.get("ipof_bottom", 1.0)) <= min_floor_evidence
+                                            for m in members):
+            kind, why = ShapeType.EXTERIOR, f"no floor seen under it (≤ {min_floor_evidence}): furniture, not a room"
         else:
             continue
         for m in members:

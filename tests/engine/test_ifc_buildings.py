@@ -110,11 +110,12 @@ def test_duplex_rooms(noise):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="seed 2 TLS: a bedroom's 1.1 m² wardrobe niche is a space of its own (the truth has it "
-                          "in the bedroom); seed 2 mobile: 16 spaces for 14 rooms (precision 0.875), no small one "
-                          "since the glazing rule", strict=False)
-@pytest.mark.parametrize("noise", ["tls", "mobile"])
+@pytest.mark.parametrize("noise", ["tls", pytest.param("mobile", marks=pytest.mark.xfail(
+    reason="seed 2 mobile: 16 spaces for 14 rooms (precision 0.875), no small one since the glazing rule",
+    strict=False))])
 def test_duplex_no_extra_spaces(noise):
+    # seed 2 TLS: a bedroom's wardrobe (1.1 m², its front cut at a wall line elsewhere) was a space
+    # of its own; no floor is seen under it, so it is furniture, not a room: 14 of 14, no extra
     sc, m, r = _run("duplex", noise)
     assert r["small_spurious"] == 0 and r["precision"] >= 0.95, r
 
@@ -188,8 +189,8 @@ def test_an_all_rejected_model_is_an_error_naming_the_stage(monkeypatch):
 
     real = manhattan.reject_implausible_spaces
 
-    def reject_all(model, min_width, min_area, min_height, tau=None):
-        return real(model, 1e6, min_area, min_height, tau)  # everything is "too narrow"
+    def reject_all(model, min_width, min_area, min_height, tau=None, **kw):
+        return real(model, 1e6, min_area, min_height, tau, **kw)  # everything is "too narrow"
 
     monkeypatch.setattr(manhattan, "reject_implausible_spaces", reject_all)
     sc = preset("office_mw", seed=1, noise="tls", target_points=60_000)

@@ -196,3 +196,24 @@ def test_doors_and_shortest_path_room_corridor_room(unscanned):
     assert len(sub.spaces) >= len(p.spaces)
     assert describe_path(m, sub) == str(p)
     assert {m.top_level(x).id for x in sub.spaces} == set(p.spaces)
+
+
+def test_a_space_with_no_floor_seen_is_furniture():
+    """The evidence rule (docs/method.md §2): a space on the storey's floor whose floor is seen
+    under none of its parts is the inside of furniture up to near the ceiling (a wardrobe
+    whose front the grid cut at a wall line elsewhere), not a room; with some floor seen under
+    one part it stays a room."""
+    from engine.grammar.rules import reject_implausible_spaces
+
+    I, W = ShapeType.INTERIOR, ShapeType.WALL
+
+    def model(floor_seen, evidence=0.1):
+        wardrobe = _part(3, 0, (4.2, 0, 0), (5.0, 3, 2.5), I)
+        wardrobe = wardrobe.with_(support={**wardrobe.support, "ipof_f0": floor_seen, "ipof_bottom": floor_seen})
+        shapes = [_part(0, 0, (0, 0, 0), (4, 3, 2.5), I), _part(2, 0, (4, 0, 0), (4.2, 3, 2.5), W), wardrobe]
+        m = BuildingModel(shapes=tuple(shapes), provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
+        return reject_implausible_spaces(derive_topology(m), 0.6, 1.0, 1.8, 0.3, min_floor_evidence=evidence)
+
+    assert len(model(0.05).spaces) == 1 and model(0.05)["s0_c003_000_00"].type == ShapeType.EXTERIOR
+    assert len(model(0.3).spaces) == 2  # some floor under it: a room (a closet)
+    assert len(model(0.05, evidence=0.0).spaces) == 2  # the rule off
