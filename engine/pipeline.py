@@ -204,7 +204,11 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
     if work.normals is None:
         p(0.05, "normals")
         npar = params.normals
-        work = estimate_normals(work, replace(npar, radius=max(npar.radius, npar.radius_voxels * voxel)))
+        # plain PCA: every neighbourhood of the working cloud is wide (>= 3 voxels), so the
+        # one-sided estimate would redo most of them (1-1.5 s per 250k mobile points) for the
+        # planes and storeys; the Manhattan grammar reads the full cloud's one-sided normals
+        work = estimate_normals(work, replace(npar, radius=max(npar.radius, npar.radius_voxels * voxel),
+                                              one_sided_planarity=0.0))
     t["normals"] = time.perf_counter() - t1
     p.check()
     t1 = time.perf_counter()

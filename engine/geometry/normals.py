@@ -154,11 +154,16 @@ def one_sided_normals(xyz: np.ndarray, view: np.ndarray, query: np.ndarray, k: i
         nb = np.where(ok, nb, 0)
         ok &= np.einsum("ikc,ic->ik", view[nb], view[qi]) > 0.0  # NaN compares False
         cnt = ok.sum(axis=1)
-        pts = xyz[nb] - xyz[qi][:, None, :]
-        wt = ok[:, :, None]
-        mu = (pts * wt).sum(axis=1) / np.maximum(cnt, 1)[:, None]
-        c = (pts - mu[:, None, :]) * wt
-        _, n = smallest_eigenpairs(np.matmul(c.transpose(0, 2, 1), c))
+        wt = ok.astype(np.float64)
+        rel = xyz[nb] - xyz[qi][:, None, :]  # (m, k, 3): centred on the query point (digits)
+        u = [rel[:, :, c] * wt for c in range(3)]
+        inv = 1.0 / np.maximum(cnt, 1)
+        mu = [ui.sum(axis=1) * inv for ui in u]
+        cov = np.empty((len(qi), 3, 3))
+        for a in range(3):
+            for b in range(a, 3):
+                cov[:, a, b] = cov[:, b, a] = (u[a] * rel[:, :, b]).sum(axis=1) * inv - mu[a] * mu[b]
+        _, n = smallest_eigenpairs(cov)
         n[cnt < min_points] = np.nan
         out[s:s + chunk] = n
     return out

@@ -252,33 +252,39 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     order = spatial_order(cloud.xyz, params.radius)  # queries in space order: same normals, less time
     pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.xyz[order]))
     hybrid = o3d.geometry.KDTreeSearchParamHybrid(radius=params.radius, max_nn=params.max_nn)
-    pc.estimate_covariances(hybrid)  # kept: the normals below reuse them (open3d's own normals)
+    s = _scanner_of_points(cloud)
+    one_sided = s is not None and params.one_sided_planarity > 0
+    if one_sided:
+        pc.estimate_covariances(hybrid)  # kept: the normals below reuse them (open3d's own normals)
     pc.estimate_normals(hybrid)
     nrm = np.empty((len(cloud), 3))
     nrm[order] = np.asarray(pc.normals, dtype=np.float64)
-    w = np.empty((len(cloud), 3))
-    w[order] = eigenvalues_3x3(np.asarray(pc.covariances))
+    wide = np.zeros(0, np.int64)
+    if one_sided:
+        cov = np.asarray(pc.covariances)  # in space order
+        # the neighbourhood's radius is about √(2 · trace): only wide ones can reach a second sheet
+        wide = np.flatnonzero(2.0 * (cov[:, 0, 0] + cov[:, 1, 1] + cov[:, 2, 2]) >= params.one_sided_reach ** 2)
+        w = eigenvalues_3x3(cov[wide])
+        wide = order[wide[w[:, 0] > params.one_sided_planarity * w[:, 1]]]  # and far from planar
+        del cov
     del pc
     # open3d leaves exactly (0, 0, 1) when a neighbourhood has fewer than 3 points
     bad = (~np.isfinite(nrm).all(axis=1) | (np.linalg.norm(nrm, axis=1) < 0.5)
            | ((nrm[:, 0] == 0.0) & (nrm[:, 1] == 0.0)))
     if bad.any():  # too few neighbours within the radius (sparse, far from the scanner)
         nrm[bad] = knn_normals(cloud.xyz, params.fallback_knn, np.nonzero(bad)[0], tree=tree)
-    s = _scanner_of_points(cloud)
-    if s is not None and params.one_sided_planarity > 0:
+    redo = wide[~bad[wide]]
+    if len(redo):
         # neighbourhoods far from planar and wide enough to reach a second sheet (the other
         # face of a partition, a table's underside): again over the points seen from this side
-        redo = np.flatnonzero(~bad & (w[:, 0] > params.one_sided_planarity * w[:, 1])
-                              & (2.0 * w.sum(axis=1) >= params.one_sided_reach ** 2))
-        if len(redo):
-            view = s - cloud.xyz
-            with np.errstate(invalid="ignore", divide="ignore"):  # a point at its scanner: NaN, left out
-                view /= np.linalg.norm(view, axis=1, keepdims=True)
-            tree = kdtree(cloud.xyz) if tree is None else tree
-            n1 = one_sided_normals(cloud.xyz, view, redo, params.max_nn, params.radius, tree=tree)
-            got = np.isfinite(n1).all(axis=1)
-            nrm[redo[got]] = n1[got]
-            log.debug("normals: %d of %d points re-estimated from their side", int(got.sum()), len(cloud))
+        view = s - cloud.xyz
+        with np.errstate(invalid="ignore", divide="ignore"):  # a point at its scanner: NaN, left out
+            view /= np.linalg.norm(view, axis=1, keepdims=True)
+        tree = kdtree(cloud.xyz) if tree is None else tree
+        n1 = one_sided_normals(cloud.xyz, view, redo, params.max_nn, params.radius, tree=tree)
+        got = np.isfinite(n1).all(axis=1)
+        nrm[redo[got]] = n1[got]
+        log.debug("normals: %d of %d points re-estimated from their side", int(got.sum()), len(cloud))
     if params.orient_to_scanner and s is not None:
         ok = np.isfinite(s).all(axis=1)
         flip = ok & (np.einsum("ij,ij->i", nrm, s - cloud.xyz) < 0)
