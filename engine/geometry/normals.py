@@ -121,7 +121,7 @@ def one_sided_normals(xyz: np.ndarray, view: np.ndarray, query: np.ndarray, k: i
     its scanner points away from the query point's (``view_q · view_p ≤ 0``) lies on another
     sheet. On sparse scans a neighbourhood of the normals' radius reaches across a 10–20 cm
     partition, and its PCA normal then lies anywhere between the wall's and the scan lines'
-    (office_mw mobile, 300k points: 20 % of a partition's points faced it; 83 % with this).
+    (office_mw mobile, 300k points: 20 % of a partition's points faced it; 71 % with this).
 
     Parameters
     ----------
