@@ -429,7 +429,8 @@ def _equivalent_width(area: float, perimeter: float) -> float:
 
 
 def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: float, min_height: float,
-                              tau: Optional[float] = None, *, min_floor_evidence: float = 0.0) -> BuildingModel:
+                              tau: Optional[float] = None, *,
+                              min_floor_evidence: float = 0.0) -> BuildingModel:
     """Evidence rule for spaces (issue 19), a reclassification of parts followed by
     :func:`derive_topology`:
 
@@ -467,7 +468,8 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
         elif min_floor_evidence > 0 and all(m.grid is not None and m.grid[2] == 0
                                             and float(m.support.get("ipof_bottom", 1.0)) <= min_floor_evidence
                                             for m in members):
-            kind, why = ShapeType.EXTERIOR, f"no floor seen under it (≤ {min_floor_evidence}): furniture, not a room"
+            kind = ShapeType.EXTERIOR
+            why = f"no floor seen under it (≤ {min_floor_evidence}): furniture, not a room"
         else:
             continue
         for m in members:

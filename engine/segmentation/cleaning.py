@@ -263,7 +263,8 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     if one_sided:
         cov = np.asarray(pc.covariances)  # in space order
         # the neighbourhood's radius is about √(2 · trace): only wide ones can reach a second sheet
-        wide = np.flatnonzero(2.0 * (cov[:, 0, 0] + cov[:, 1, 1] + cov[:, 2, 2]) >= params.one_sided_reach ** 2)
+        trace = cov[:, 0, 0] + cov[:, 1, 1] + cov[:, 2, 2]
+        wide = np.flatnonzero(2.0 * trace >= params.one_sided_reach ** 2)
         w = eigenvalues_3x3(cov[wide])
         wide = order[wide[w[:, 0] > params.one_sided_planarity * w[:, 1]]]  # and far from planar
         del cov

@@ -209,9 +209,11 @@ def test_a_space_with_no_floor_seen_is_furniture():
 
     def model(floor_seen, evidence=0.1):
         wardrobe = _part(3, 0, (4.2, 0, 0), (5.0, 3, 2.5), I)
-        wardrobe = wardrobe.with_(support={**wardrobe.support, "ipof_f0": floor_seen, "ipof_bottom": floor_seen})
+        support = {**wardrobe.support, "ipof_f0": floor_seen, "ipof_bottom": floor_seen}
+        wardrobe = wardrobe.with_(support=support)
         shapes = [_part(0, 0, (0, 0, 0), (4, 3, 2.5), I), _part(2, 0, (4, 0, 0), (4.2, 3, 2.5), W), wardrobe]
-        m = BuildingModel(shapes=tuple(shapes), provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
+        m = BuildingModel(shapes=tuple(shapes),
+                          provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
         return reject_implausible_spaces(derive_topology(m), 0.6, 1.0, 1.8, 0.3, min_floor_evidence=evidence)
 
     assert len(model(0.05).spaces) == 1 and model(0.05)["s0_c003_000_00"].type == ShapeType.EXTERIOR
