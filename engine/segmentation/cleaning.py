@@ -275,12 +275,12 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     if bad.any():  # too few neighbours within the radius (sparse, far from the scanner)
         nrm[bad] = knn_normals(cloud.xyz, params.fallback_knn, np.nonzero(bad)[0], tree=tree)
     redo = wide[~bad[wide]]
+    to_scanner = s - cloud.xyz if s is not None else None  # read by both steps below
     if len(redo):
         # neighbourhoods far from planar and wide enough to reach a second sheet (the other
         # face of a partition, a table's underside): again over the points seen from this side
-        view = s - cloud.xyz
         with np.errstate(invalid="ignore", divide="ignore"):  # a point at its scanner: NaN, left out
-            view /= np.linalg.norm(view, axis=1, keepdims=True)
+            view = to_scanner / np.linalg.norm(to_scanner, axis=1, keepdims=True)
         tree = kdtree(cloud.xyz) if tree is None else tree
         n1 = one_sided_normals(cloud.xyz, view, redo, params.max_nn, params.radius, tree=tree)
         got = np.isfinite(n1).all(axis=1)
@@ -288,7 +288,7 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         log.debug("normals: %d of %d points re-estimated from their side", int(got.sum()), len(cloud))
     if params.orient_to_scanner and s is not None:
         ok = np.isfinite(s).all(axis=1)
-        flip = ok & (np.einsum("ij,ij->i", nrm, s - cloud.xyz) < 0)
+        flip = ok & (np.einsum("ij,ij->i", nrm, to_scanner) < 0)
         nrm[flip] *= -1.0
     p(1.0, "normals done")
     return cloud.with_(normals=nrm.astype(np.float32))
