@@ -209,7 +209,9 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
         base_ext = base.with_(shapes=base.shapes + tuple(st[1] for st in per_storey.values()))
         grid = PointGrid(xyz_model)
         # exterior "doors" of an upper storey with nothing walkable beyond are windows
-        detected = elevated_doors(_detect(base_ext, first, xyz_model, cloud, prm), first, grid, prm.openings)
+        lowest = min((float(st.floor_z) for st in base.storeys), default=None)
+        detected = elevated_doors(_detect(base_ext, first, xyz_model, cloud, prm), first, grid, prm.openings,
+                                  lowest)
         # interior walls end at their doorless openings (an open plan, not a hole in a
         # wall); exterior walls measured through their openings get that thickness
         breaks, detected = _breaks(first, detected)

@@ -4,9 +4,10 @@ A gap in an exterior wall that reaches the floor is a door by its shape. Seen th
 scan also says what lies beyond it: a door leads onto ground, a terrace or a balcony at about
 its floor's level, just outside. A floor-to-ceiling window of an upper storey (the Duplex's
 750 × 2200 mm windows on level 2, sill 10 cm, with nothing under the hole to see) has nothing
-there; the ground seen through it lies a storey lower. Such an opening is a window with its
-sill at the gap's bottom. Without points beyond (no surroundings in the scan, a closed leaf)
-nothing changes.
+there; the ground seen through it lies a storey lower, or (a narrow one seen at a glance,
+a scan without its surroundings) is not seen at all, while its storey's floor lies a storey
+above the building's lowest. Such an opening is a window with its sill at the gap's bottom.
+On the lowest storey without points beyond, and behind a closed leaf, nothing changes.
 """
 from __future__ import annotations
 
@@ -48,9 +49,15 @@ def _beyond(grid: PointGrid, a, d, n, half, u0, u1, depth, z0, z1) -> int:
 
 
 def elevated_doors(openings: list[Shape], walls: list[Shape], grid: PointGrid,
-                   params: OpeningParams = OpeningParams()) -> list[Shape]:
+                   params: OpeningParams = OpeningParams(), lowest_floor: float = None) -> list[Shape]:
     """``openings`` with the open exterior doors (and doorless openings) that lead nowhere
-    walkable turned into windows; names renumbered per kind when one changed."""
+    walkable turned into windows; names renumbered per kind when one changed.
+
+    Nowhere walkable: no points at the door's floor level just beyond it while the scan saw
+    through it, and either the ground seen far below through it or (``lowest_floor``, the
+    building's lowest storey floor, metres) its storey's floor ``elevated_drop`` or more
+    above the lowest one (a narrow window seen through at a glance shows little ground, and a
+    scan of the building's inside often none)."""
     by_id = {w.id: w for w in walls}
     out, changed = [], False
     for o in openings:
@@ -69,14 +76,17 @@ def elevated_doors(openings: list[Shape], walls: list[Shape], grid: PointGrid,
         lo, hi = params.egress_band
         walk = _beyond(grid, a, d, n, half, u0, u1, params.egress_depth, floor + lo, floor + hi)
         below = _beyond(grid, a, d, n, half, u0 - 2.0, u1 + 2.0, 20.0, -np.inf, floor - params.elevated_drop)
-        if walk > 3 or below < params.min_elevated_points:
+        upper = lowest_floor is not None and floor - lowest_floor >= params.elevated_drop
+        if walk > 3 or (below < params.min_elevated_points and not upper):
             out.append(o)
             continue
         attrs = {k: v for k, v in o.attributes.items() if k != "open"}
         attrs["kind"] = "window"
+        why = (f"{below} points of the ground {params.elevated_drop:.1f} m or more below"
+               if below >= params.min_elevated_points else
+               f"its floor {floor - lowest_floor:.1f} m above the lowest storey's")
         out.append(o.logged(f"egress: nothing walkable within {params.egress_depth:.1f} m beyond it "
-                            f"({walk} points at its floor's level), {below} points of the ground "
-                            f"{params.elevated_drop:.1f} m or more below: a window down to the floor",
+                            f"({walk} points at its floor's level), {why}: a window down to the floor",
                             type=ShapeType.WINDOW, id=o.id.replace("door_", "window_", 1), attributes=attrs))
         changed = True
     if not changed:

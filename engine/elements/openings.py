@@ -519,7 +519,10 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
         ia, ib = max(0, int(el / c)), max(0, int(math.ceil(er / c)))
         cols = dd.bottom[ia:ib]
         seen = cols[np.isfinite(cols)]
-        if len(seen) >= max(2, 0.5 * len(cols)):
+        # a hole too low for a door needs less: a few columns (its sill seen at a grazing
+        # angle) tell a low window from nothing at all
+        low_hole = et - z0 < p.min_door_height
+        if len(seen) >= (p.min_sill_columns if low_hole else max(2, 0.5 * len(cols))):
             if float(np.median(seen)) >= p.min_sill:
                 floor_reach, eb = False, z0 + float(np.median(seen))
         elif ib - ia > 2 and float((dd.low_face[ia + 1:ib - 1] > 0).mean()) >= 0.6:
@@ -591,6 +594,9 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     closed = kind == "door" and f_leaf >= p.leaf_share and f_through < p.min_seen_through
     if side is not None and not closed:
         return None
+    if (w.external and f_through < p.min_seen_through and not _inner_faces(obs, a, b, outer)
+            and any(obs[s][a:b].mean() > 0.5 for s in outer)):
+        return None  # an exterior wall seen from outside only there: the scan is not where the model says
     conf = 0.5 * min(1.0, f_through / (2 * p.min_seen_through)) * dd.rays
     conf += 0.25 * both + 0.2 * (w.external and not occluded and side is None)
     conf += 0.15 * min(1.0, f_floor / p.cue_share) + 0.15 * min(1.0, f_reveal / p.reveal_share)
@@ -648,10 +654,33 @@ def _fit_faces(frames: list[_Wall], idx: list, xyz: np.ndarray, p: OpeningParams
     return float(np.median(spread)) if spread else 0.01
 
 
-def _overlap(a: dict, b: dict) -> bool:
-    """Whether two measured openings overlap in the wall's plane."""
-    return (min(a["u1"], b["u1"]) > max(a["u0"], b["u0"])
-            and min(a["sill"] + a["height"], b["sill"] + b["height"]) > max(a["sill"], b["sill"]))
+def _overlap(a: dict, b: dict, abut: float = 0.0) -> bool:
+    """Whether two measured openings overlap in the wall's plane by more than ``abut``
+    (metres) across one edge only (two windows measured from the mullion or transom between
+    them overlap by less: they are neighbours, see :func:`_abut`)."""
+    ou = min(a["u1"], b["u1"]) - max(a["u0"], b["u0"])
+    oz = min(a["sill"] + a["height"], b["sill"] + b["height"]) - max(a["sill"], b["sill"])
+    return ou > 0 and oz > 0 and not (ou <= abut < oz or oz <= abut < ou)
+
+
+def _abut(a: dict, b: dict, abut: float) -> None:
+    """Two neighbouring openings overlapping by at most ``abut`` across one edge trimmed
+    (in place) to meet halfway."""
+    ou = min(a["u1"], b["u1"]) - max(a["u0"], b["u0"])
+    oz = min(a["sill"] + a["height"], b["sill"] + b["height"]) - max(a["sill"], b["sill"])
+    if ou <= 0 or oz <= 0:
+        return
+    if ou <= abut < oz:  # side by side
+        lo, hi = (a, b) if a["u0"] + a["u1"] <= b["u0"] + b["u1"] else (b, a)
+        lo["u1"] = hi["u0"] = (lo["u1"] + hi["u0"]) / 2
+        for o in (lo, hi):
+            o["width"] = o["u1"] - o["u0"]
+    elif oz <= abut < ou:  # one above the other
+        lo, hi = (a, b) if a["sill"] <= b["sill"] else (b, a)
+        top = hi["sill"] + hi["height"]
+        lo["height"] = (hi["sill"] - lo["sill"] + lo["height"]) / 2
+        hi["sill"] = lo["sill"] + lo["height"]
+        hi["height"] = top - hi["sill"]
 
 
 def _shape(w: _Wall, o: dict, oid: str, name: str, exterior: str) -> Shape:
@@ -716,6 +745,9 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
     """
     xyz, normals, scan_index, scanners = _checked(xyz, normals, scan_index, scanner_positions)
     frames = [_frame(w, storeys) for w in walls if w.type == ShapeType.WALL]
+    for w in frames:  # a side facing the storey's exterior (named, or no space) is an outer side
+        ext = exterior_ids.get(w.shape.storey, f"exterior_s{w.shape.storey}")
+        w.sides = tuple(None if sd == ext else sd for sd in w.sides)
     if not frames or len(xyz) == 0:
         return []
     p = params
@@ -740,7 +772,9 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
                     o[side] = min(o["u1"], cut) if side == "u1" else max(o["u0"], cut)
                     o["width"] = o["u1"] - o["u0"]
             for o in judged:
-                if o is not None and o["width"] > 0 and not any(_overlap(o, f) for f in found):
+                if o is not None and o["width"] > 0 and not any(_overlap(o, f, p.abut) for f in found):
+                    for f in found:
+                        _abut(o, f, p.abut)
                     found.append(o)
         ext = exterior_ids.get(w.shape.storey, f"exterior_s{w.shape.storey}")
         for j, o in enumerate(sorted(found, key=lambda f: f["u0"])):

@@ -42,6 +42,10 @@ class OpeningParams:
     """Rows / columns of a gap's bounding box less empty than this are cut off."""
     merge_gap: Metres = 0.2
     """Gaps this close along the wall, overlapping in height, are one gap, metres."""
+    abut: Metres = 0.05
+    """Two openings overlapping by at most this much across one edge are neighbours (two
+    windows measured from the mullion or transom between them), not one found twice; they
+    are trimmed to meet halfway, metres."""
     min_door_width: Metres = 0.6
     """Narrower gaps reaching the floor are not doors, metres."""
     max_door_width: Metres = 2.0
@@ -60,6 +64,9 @@ class OpeningParams:
     """A floor-reaching gap whose bottom inside the thickness (the material under the hole:
     the floor through a doorway, a sill's top under a window) lies this far above the floor
     or more is a window with that sill, not a door, metres."""
+    min_sill_columns: Count = 3
+    """A floor-reaching gap lower than a door is a window when its sill's top is seen in
+    this many columns (a taller gap needs half its columns), cells."""
     ceiling_tolerance: Metres = 0.15
     """A gap ending this close to the ceiling reaches the ceiling, metres."""
     min_seen_through: Ratio = 0.15

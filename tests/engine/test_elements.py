@@ -190,12 +190,15 @@ def test_reveal_depth_behind_a_pane():
     assert reveal_depth(wall, [win], PointGrid(noise(np.vstack([near, far]))), 1, 0.7) == pytest.approx(0.30, abs=0.02)
 
 
-@pytest.mark.parametrize("outside,kind", [("terrace", "door"), ("ground_below", "window"), ("none", "door"),
-                                          ("closed", "door")])
-def test_exterior_door_with_nothing_walkable_beyond_is_a_window(outside, kind):
+@pytest.mark.parametrize("outside,lowest,kind", [
+    ("terrace", None, "door"), ("ground_below", None, "window"), ("none", None, "door"), ("closed", None, "door"),
+    ("terrace", 0.0, "door"), ("none", 0.0, "window"), ("closed", 0.0, "door"), ("none", 3.0, "door")])
+def test_exterior_door_with_nothing_walkable_beyond_is_a_window(outside, lowest, kind):
     """An upper storey's floor-to-ceiling window (floor at z = 3) looks like a door; beyond it
     the scan sees the ground 3 m below and nothing at its floor's level: a window. A terrace
-    at the floor's level keeps it a door; so do no points beyond and a closed leaf."""
+    at the floor's level keeps it a door; so do no points beyond and a closed leaf. With the
+    building's lowest floor known (``lowest``), seen through with nothing walkable beyond is
+    enough 3 m above it, not on the lowest storey itself."""
     from engine.elements.egress import elevated_doors
     from engine.elements.thickness import PointGrid
     rng = np.random.default_rng(6)
@@ -214,7 +217,7 @@ def test_exterior_door_with_nothing_walkable_beyond_is_a_window(outside, kind):
               "ground_below": np.c_[rng.uniform(0, 6, 200), -rng.uniform(2, 12, 200), np.zeros(200)],
               "none": np.zeros((0, 3)), "closed": np.c_[rng.uniform(0, 6, 200), -rng.uniform(2, 12, 200),
                                                         np.zeros(200)]}[outside]
-    out = elevated_doors([door, win], [wall], PointGrid(np.vstack([room, beyond])))
+    out = elevated_doors([door, win], [wall], PointGrid(np.vstack([room, beyond])), lowest_floor=lowest)
     assert len(out) == 2 and out[1].type == ShapeType.WINDOW and out[1].id == "window_w_1"
     o = out[0]
     assert o.type.value == kind

@@ -217,6 +217,57 @@ def test_a_door_beside_a_window_in_one_hole_is_a_door_and_a_window(rays):
     assert abs(win.attributes["width"] - 2.04) <= 0.1 and abs(win.attributes["sill"] - 0.3) <= 0.05, kinds
 
 
+@pytest.mark.parametrize("rays", [True, False])
+@pytest.mark.parametrize("sill", [0.08, 0.12])
+def test_a_low_window_from_near_the_floor_is_a_window(rays, sill):
+    """A 0.8 m x 0.76 m pane from a sill 8-12 cm above the floor (the lowest of the Duplex's
+    stacked windows): a gap reaching the floor but lower than a door, its sill's top seen
+    at a grazing angle in a few columns only. Not a door, not nothing: a window."""
+    ops = _glazed_exterior_hole((1.5, 2.3, sill, sill + 0.76), rays)
+    got = [(o.attributes["kind"], round(o.attributes["sill"], 2), round(o.attributes["height"], 2),
+            round(o.attributes["width"], 2)) for o in ops]
+    assert [g[0] for g in got] == ["window"], got
+    assert abs(got[0][1] - sill) <= 0.04 and abs(got[0][1] + got[0][2] - sill - 0.76) <= 0.05, got
+    assert abs(got[0][3] - 0.8) <= 0.05, got
+
+
+@pytest.mark.parametrize("rays", [True, False])
+def test_a_hole_seen_only_from_the_outer_side_needs_rays_through_it(rays):
+    """A door hole in a wall the model calls exterior (room_a on +v), while the scan stands
+    on its outer side only (a room left out of the model, or the wall's sides wrong): the
+    inner face is never seen. Rays through the hole prove it; without them the scan says
+    nothing about the model's inside there: no opening (two_storey_office TLS seed 7: a
+    cabinet taken into a thick "exterior" wall, whose gap read as a door to the outside)."""
+    boxes = _room(T_INT / 2, 4.0) + _room(-T_INT / 2, -4.0) + _holed_wall(T_INT, DOOR)
+    walls = [_wall("w_mid", 0.0, 0.0, L, T_INT, ("room_a", "outside_0"), True)]
+    xyz, idx, pos = _scan(boxes, [(1.0, -2.2, 1.5), (3.8, -2.5, 1.5)])
+    ops = detect_openings(walls, [STOREY], xyz, scan_index=idx if rays else None,
+                          scanner_positions=pos if rays else None, exterior_ids={0: "outside_0"})
+    assert [o.attributes["kind"] for o in ops] == (["door"] if rays else []), [o.attributes for o in ops]
+
+
+def test_openings_sharing_a_mullion_or_transom_meet_halfway():
+    """Two windows measured from the frame between them overlap by a few centimetres: both
+    stay, trimmed to meet halfway; a larger overlap is one hole found twice."""
+    from engine.elements.openings import _abut, _overlap
+
+    def win(u0, u1, sill, height):
+        return {"u0": u0, "u1": u1, "width": u1 - u0, "sill": sill, "height": height}
+
+    a, b = win(1.0, 2.03, 0.9, 1.4), win(2.0, 3.0, 0.9, 1.4)  # side by side, 3 cm overlap
+    assert not _overlap(a, b, 0.05)
+    _abut(a, b, 0.05)
+    assert a["u1"] == b["u0"] == pytest.approx(2.015) and a["width"] == pytest.approx(1.015)
+    lo, hi = win(1.0, 1.8, 0.1, 0.78), win(1.0, 1.8, 0.86, 0.74)  # stacked, 2 cm overlap
+    assert not _overlap(hi, lo, 0.05)
+    _abut(hi, lo, 0.05)
+    assert lo["sill"] + lo["height"] == pytest.approx(hi["sill"]) == pytest.approx(0.87)
+    assert hi["sill"] + hi["height"] == pytest.approx(1.6) and lo["sill"] == 0.1
+    assert _overlap(win(1.0, 2.2, 0.9, 1.4), win(2.0, 3.0, 0.9, 1.4), 0.05)  # 20 cm: one hole twice
+    assert _overlap(win(1.0, 2.03, 0.9, 1.4), win(2.0, 3.0, 0.9, 1.4), 0.0)  # no tolerance: as before
+    assert not _overlap(win(1.0, 2.0, 0.9, 1.4), win(2.5, 3.0, 0.9, 1.4), 0.05)  # apart
+
+
 def test_a_closed_door_is_a_recessed_leaf_in_a_door_sized_gap():
     """A 4 cm leaf whose face is 3 cm behind room_a's wall face (8 cm behind room_b's)."""
     leaf = ((DOOR[0], T_INT / 2 - 0.07, 0.0), (DOOR[1], T_INT / 2 - 0.03, DOOR[3]))
