@@ -131,6 +131,10 @@ class RjmcmcParams:
     """After the search, an untyped *covered* cell adjacent to exactly one space joins it
     (repeated until nothing changes): it lies under that room's ceiling. So does a
     *walled-in* one (see ``walled_in_ratio``). See the module doc."""
+    join_open: Flag = True
+    """After the search, an untyped covered cell between several spaces with no seen wall
+    face towards any of them joins them into one space (rooms meeting without a wall are
+    one space, issue 19); off: the search's split stands."""
     walled_in_ratio: Ratio = 0.1
     """An untyped cell adjacent to exactly one space and walled in otherwise (no way out but
     through that space, :meth:`SpaceSearch.walled_in`) joins it when at least this share of

@@ -408,10 +408,26 @@ class SpaceSearch:
         d = self.cells.wall_thickness(o, self.cfaces[o], self.space_of >= 0)
         return d <= self.params.max_wall_thickness
 
+    def _open_between(self, c: int) -> bool:
+        """Whether covered untyped cell ``c`` separates its adjacent spaces by nothing: the
+        ceiling is seen over it and none of its faces towards a space is a seen wall."""
+        seen = self.cov.seen
+        if seen is None or not self.covered[c]:
+            return False
+        for fi in self.cfaces[c]:
+            a, b = self.face_ab[fi]
+            other = b if a == c else a
+            if other >= 0 and self.space_of[other] >= 0 and seen[fi]:
+                return False
+        return True
+
     def absorb_covered(self) -> int:
         """Add every untyped cell adjacent to exactly one space to it when it is covered or
         walled in and the grown space still satisfies the prior (a covered cell beyond a
-        seen wall face stays out) — repeatedly. Returns the number of cells added."""
+        seen wall face stays out); join the spaces on both sides of a covered cell with no
+        seen wall towards any of them (rooms meeting without a wall are one space: the
+        posterior can tie on a strip split off by a wall line running on through a room)
+        — repeatedly. Returns the number of cells added."""
         added, changed = 0, True
         while changed:
             changed = False
@@ -419,6 +435,13 @@ class SpaceSearch:
                 if self.space_of[c] >= 0:
                     continue
                 adj = self.adjacent_spaces(c)
+                if len(adj) > 1 and self.params.join_open and self._open_between(c):
+                    remove, add = self.move_add_merge(c)
+                    if self.space_terms(add[0]).prior_ok:
+                        self.apply(remove, add)
+                        added += 1
+                        changed = True
+                    continue
                 if len(adj) != 1:
                     continue
                 sid = adj.pop()
