@@ -505,8 +505,8 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     zlo, zhi = (z0 + p.edge_band if floor_reach else zb) + 0.05, zt - 0.05
     el = _edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True)
     er = _edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False)
-    el = ul - c if el is None else max(el, ul - srch)
-    er = ur + c if er is None else min(er, ur + srch)
+    el = max(ul - c if el is None else max(el, ul - srch), 0.0)  # not past the run's ends
+    er = min(ur + c if er is None else min(er, ur + srch), w.length)
     if er <= el:
         return None
     et = z1 if ceil_reach else _edge(fz, fu, fin, zt - c, zt + srch, el + 0.05, er - 0.05, False)

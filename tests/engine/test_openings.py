@@ -246,6 +246,21 @@ def test_a_hole_seen_only_from_the_outer_side_needs_rays_through_it(rays):
     assert [o.attributes["kind"] for o in ops] == (["door"] if rays else []), [o.attributes for o in ops]
 
 
+def test_an_opening_stops_at_the_end_of_its_wall_run():
+    """A 1.0 m door whose hole starts 0.3 m before its wall run does (the run begins at a
+    junction the model put inside the hole; the Duplex's hallway doors beside a corner were
+    measured a cell past the run's start, 9 cm too wide): the door is cut at the run's end."""
+    hole = (0.0, 1.0, 0.0, 2.03)
+    boxes, walls, scanners = _two_rooms(_holed_wall(T_INT, hole))
+    walls[0] = _wall("w_mid", 0.3, 0.0, L, T_INT, ("room_a", "room_b"), False)
+    xyz, idx, pos = _scan(boxes, scanners)
+    ops = detect_openings(walls, [STOREY], xyz, scan_index=idx, scanner_positions=pos)
+    assert [o.attributes["kind"] for o in ops] == ["door"], [o.attributes for o in ops]
+    a = ops[0].attributes
+    assert _centre_u(ops[0]) - a["width"] / 2 >= 0.3 - 1e-6, (_centre_u(ops[0]), a)
+    assert abs(a["width"] - 0.7) <= 0.05, a
+
+
 def test_openings_sharing_a_mullion_or_transom_meet_halfway():
     """Two windows measured from the frame between them overlap by a few centimetres: both
     stay, trimmed to meet halfway; a larger overlap is one hole found twice."""
