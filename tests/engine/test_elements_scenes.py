@@ -99,11 +99,12 @@ def test_duplex_party_wall_is_one_wall_without_openings(results, noise):
     sc, m, r = _run(results, "duplex", noise, 3)
     assert r["doors"]["precision"] >= 0.8 and r["doors"]["recall"] >= 0.78, r["doors"]
     if noise == "tls":
-        # windows, seed 3: 19 of 24 found, none false (0.79 / 1.00); 15 of 24 before the
-        # stacked panes were kept apart (their transoms measured by both) and low panes
-        # (sill 8 cm, sill seen in a few columns) taken for windows. Two roof windows above
-        # the unscanned roof storey cannot be seen. Margin: two windows.
-        assert r["windows"]["recall"] >= 0.7 and r["windows"]["precision"] >= 0.9, r["windows"]
+        # windows, seed 3: 21 of 24 found, none false (0.875 / 1.00); 15 of 24 before the
+        # stacked panes were kept apart (their transoms measured by both), low panes (sill
+        # 8 cm, sill seen in a few columns) taken for windows and exterior sides known by
+        # name. Two roof windows above the unscanned roof storey cannot be seen. Margin: two
+        # windows.
+        assert r["windows"]["recall"] >= 19 / 24 and r["windows"]["precision"] >= 0.9, r["windows"]
     from engine.evaluation.elements import _in_truth_frame, _plan
 
     from shapely.geometry import Point
