@@ -37,15 +37,16 @@ def _outer_normal(wall: Shape):
     return a, d, n, float(wall.attributes["thickness"]) / 2
 
 
-def _beyond(grid: PointGrid, a, d, n, half, u0, u1, depth, z0, z1) -> int:
-    """Points beyond the outer face: along the wall in [u0, u1], up to ``depth`` out, z in [z0, z1]."""
-    corners = np.array([a + d * u + n * (half + v) for u in (u0, u1) for v in (0.05, depth)])
+def _beyond(grid: PointGrid, a, d, n, half, u0, u1, depth, z0, z1, start: float = 0.05) -> int:
+    """Points beyond the outer face: along the wall in [u0, u1], ``start`` to ``depth`` out,
+    z in [z0, z1]."""
+    corners = np.array([a + d * u + n * (half + v) for u in (u0, u1) for v in (start, depth)])
     idx = grid.in_box(np.r_[corners.min(axis=0), z0], np.r_[corners.max(axis=0), z1])
     if len(idx) == 0:
         return 0
     q = grid.xyz[idx, :2] - a
     u, v = q @ d, q @ n - half
-    return int(np.count_nonzero((u >= u0) & (u <= u1) & (v >= 0.05) & (v <= depth)))
+    return int(np.count_nonzero((u >= u0) & (u <= u1) & (v >= start) & (v <= depth)))
 
 
 def elevated_doors(openings: list[Shape], walls: list[Shape], grid: PointGrid,
@@ -74,7 +75,9 @@ def elevated_doors(openings: list[Shape], walls: list[Shape], grid: PointGrid,
         u0, u1 = u - width / 2, u + width / 2
         floor = float(o.bounds[0, 2]) - float(o.attributes.get("sill", 0.0))
         lo, hi = params.egress_band
-        walk = _beyond(grid, a, d, n, half, u0, u1, params.egress_depth, floor + lo, floor + hi)
+        # from a step's depth out: the first pass's walls have the default thickness, and a
+        # thicker wall's sill under a low window lies at about the floor's level
+        walk = _beyond(grid, a, d, n, half, u0, u1, params.egress_depth, floor + lo, floor + hi, params.egress_gap)
         below = _beyond(grid, a, d, n, half, u0 - 2.0, u1 + 2.0, 20.0, -np.inf, floor - params.elevated_drop)
         upper = lowest_floor is not None and floor - lowest_floor >= params.elevated_drop
         if walk > 3 or (below < params.min_elevated_points and not upper):

@@ -95,6 +95,9 @@ class OpeningParams:
     egress_depth: Metres = 1.2
     """An open exterior door leads onto ground, a terrace or a balcony: scan points at about
     its floor's level (``egress_band``) within this distance beyond the wall, metres."""
+    egress_gap: Metres = 0.3
+    """... counted from this far beyond the wall's outer face (not the sill of a low window in
+    a wall thicker than the first pass assumed), metres."""
     egress_band: tuple = (-0.45, 0.25)
     """Levels (metres, from the storey's floor) that count as walkable beyond a door: a few
     steps down to a step up."""

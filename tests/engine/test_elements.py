@@ -192,13 +192,16 @@ def test_reveal_depth_behind_a_pane():
 
 @pytest.mark.parametrize("outside,lowest,kind", [
     ("terrace", None, "door"), ("ground_below", None, "window"), ("none", None, "door"), ("closed", None, "door"),
-    ("terrace", 0.0, "door"), ("none", 0.0, "window"), ("closed", 0.0, "door"), ("none", 3.0, "door")])
+    ("terrace", 0.0, "door"), ("none", 0.0, "window"), ("closed", 0.0, "door"), ("none", 3.0, "door"),
+    ("thick_sill", 0.0, "window")])
 def test_exterior_door_with_nothing_walkable_beyond_is_a_window(outside, lowest, kind):
     """An upper storey's floor-to-ceiling window (floor at z = 3) looks like a door; beyond it
     the scan sees the ground 3 m below and nothing at its floor's level: a window. A terrace
     at the floor's level keeps it a door; so do no points beyond and a closed leaf. With the
     building's lowest floor known (``lowest``), seen through with nothing walkable beyond is
-    enough 3 m above it, not on the lowest storey itself."""
+    enough 3 m above it, not on the lowest storey itself. A sill 8 cm up in a wall 0.25 m
+    thicker than the first pass assumed (points at the floor's level just past the assumed
+    outer face) is no terrace."""
     from engine.elements.egress import elevated_doors
     from engine.elements.thickness import PointGrid
     rng = np.random.default_rng(6)
@@ -216,7 +219,8 @@ def test_exterior_door_with_nothing_walkable_beyond_is_a_window(outside, lowest,
     beyond = {"terrace": np.c_[rng.uniform(1.5, 3.3, 200), -rng.uniform(0.5, 3, 200), np.full(200, 2.9)],
               "ground_below": np.c_[rng.uniform(0, 6, 200), -rng.uniform(2, 12, 200), np.zeros(200)],
               "none": np.zeros((0, 3)), "closed": np.c_[rng.uniform(0, 6, 200), -rng.uniform(2, 12, 200),
-                                                        np.zeros(200)]}[outside]
+                                                        np.zeros(200)],
+              "thick_sill": np.c_[rng.uniform(2.0, 2.8, 200), -rng.uniform(0.36, 0.55, 200), np.full(200, 3.08)]}[outside]
     out = elevated_doors([door, win], [wall], PointGrid(np.vstack([room, beyond])), lowest_floor=lowest)
     assert len(out) == 2 and out[1].type == ShapeType.WINDOW and out[1].id == "window_w_1"
     o = out[0]
