@@ -11,6 +11,8 @@ On the lowest storey without points beyond, and behind a closed leaf, nothing ch
 """
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
 
 from ..model import Shape, ShapeType
@@ -50,7 +52,8 @@ def _beyond(grid: PointGrid, a, d, n, half, u0, u1, depth, z0, z1, start: float 
 
 
 def elevated_doors(openings: list[Shape], walls: list[Shape], grid: PointGrid,
-                   params: OpeningParams = OpeningParams(), lowest_floor: float = None) -> list[Shape]:
+                   params: OpeningParams = OpeningParams(),
+                   lowest_floor: Optional[float] = None) -> list[Shape]:
     """``openings`` with the open exterior doors (and doorless openings) that lead nowhere
     walkable turned into windows; names renumbered per kind when one changed.
 
@@ -77,7 +80,8 @@ def elevated_doors(openings: list[Shape], walls: list[Shape], grid: PointGrid,
         lo, hi = params.egress_band
         # from a step's depth out: the first pass's walls have the default thickness, and a
         # thicker wall's sill under a low window lies at about the floor's level
-        walk = _beyond(grid, a, d, n, half, u0, u1, params.egress_depth, floor + lo, floor + hi, params.egress_gap)
+        walk = _beyond(grid, a, d, n, half, u0, u1, params.egress_depth, floor + lo, floor + hi,
+                       params.egress_gap)
         below = _beyond(grid, a, d, n, half, u0 - 2.0, u1 + 2.0, 20.0, -np.inf, floor - params.elevated_drop)
         upper = lowest_floor is not None and floor - lowest_floor >= params.elevated_drop
         if walk > 3 or (below < params.min_elevated_points and not upper):

@@ -654,20 +654,24 @@ def _fit_faces(frames: list[_Wall], idx: list, xyz: np.ndarray, p: OpeningParams
     return float(np.median(spread)) if spread else 0.01
 
 
+def _overlaps(a: dict, b: dict) -> tuple[float, float]:
+    """How far two measured openings overlap along the wall and in height, metres (≤ 0: not)."""
+    return (min(a["u1"], b["u1"]) - max(a["u0"], b["u0"]),
+            min(a["sill"] + a["height"], b["sill"] + b["height"]) - max(a["sill"], b["sill"]))
+
+
 def _overlap(a: dict, b: dict, abut: float = 0.0) -> bool:
     """Whether two measured openings overlap in the wall's plane by more than ``abut``
     (metres) across one edge only (two windows measured from the mullion or transom between
     them overlap by less: they are neighbours, see :func:`_abut`)."""
-    ou = min(a["u1"], b["u1"]) - max(a["u0"], b["u0"])
-    oz = min(a["sill"] + a["height"], b["sill"] + b["height"]) - max(a["sill"], b["sill"])
+    ou, oz = _overlaps(a, b)
     return ou > 0 and oz > 0 and not (ou <= abut < oz or oz <= abut < ou)
 
 
 def _abut(a: dict, b: dict, abut: float) -> None:
     """Two neighbouring openings overlapping by at most ``abut`` across one edge trimmed
     (in place) to meet halfway."""
-    ou = min(a["u1"], b["u1"]) - max(a["u0"], b["u0"])
-    oz = min(a["sill"] + a["height"], b["sill"] + b["height"]) - max(a["sill"], b["sill"])
+    ou, oz = _overlaps(a, b)
     if ou <= 0 or oz <= 0:
         return
     if ou <= abut < oz:  # side by side

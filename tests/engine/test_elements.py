@@ -191,7 +191,8 @@ def test_reveal_depth_behind_a_pane():
 
 
 @pytest.mark.parametrize("outside,lowest,kind", [
-    ("terrace", None, "door"), ("ground_below", None, "window"), ("none", None, "door"), ("closed", None, "door"),
+    ("terrace", None, "door"), ("ground_below", None, "window"), ("none", None, "door"),
+    ("closed", None, "door"),
     ("terrace", 0.0, "door"), ("none", 0.0, "window"), ("closed", 0.0, "door"), ("none", 3.0, "door"),
     ("thick_sill", 0.0, "window")])
 def test_exterior_door_with_nothing_walkable_beyond_is_a_window(outside, lowest, kind):
@@ -220,7 +221,8 @@ def test_exterior_door_with_nothing_walkable_beyond_is_a_window(outside, lowest,
               "ground_below": np.c_[rng.uniform(0, 6, 200), -rng.uniform(2, 12, 200), np.zeros(200)],
               "none": np.zeros((0, 3)), "closed": np.c_[rng.uniform(0, 6, 200), -rng.uniform(2, 12, 200),
                                                         np.zeros(200)],
-              "thick_sill": np.c_[rng.uniform(2.0, 2.8, 200), -rng.uniform(0.36, 0.55, 200), np.full(200, 3.08)]}[outside]
+              "thick_sill": np.c_[rng.uniform(2.0, 2.8, 200), -rng.uniform(0.36, 0.55, 200),
+                                  np.full(200, 3.08)]}[outside]
     out = elevated_doors([door, win], [wall], PointGrid(np.vstack([room, beyond])), lowest_floor=lowest)
     assert len(out) == 2 and out[1].type == ShapeType.WINDOW and out[1].id == "window_w_1"
     o = out[0]
