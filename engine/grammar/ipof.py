@@ -32,8 +32,27 @@ def plane_cells(uv: np.ndarray, spacing: float) -> np.ndarray:
     return (cells + 0.5) * spacing
 
 
+def local_radii(uv: np.ndarray, spacing: float, max_radius: float, k: int = 4) -> np.ndarray:
+    """Each point's sampling radius on its plane: the local spacing, never below σ.
+
+    The local spacing is √(π / k) times the distance to the k-th nearest neighbour in the
+    plane (1 / √density for a uniform sampling). A point whose local spacing exceeds
+    ``max_radius`` is isolated (a stray, not a sparsely seen surface) and keeps σ.
+    """
+    from scipy.spatial import cKDTree
+
+    r = np.full(len(uv), float(spacing))
+    if len(uv) <= k or max_radius <= spacing:
+        return r
+    d, _ = cKDTree(uv).query(uv, k=k + 1)
+    s = d[:, -1] * np.sqrt(np.pi / k)
+    grow = (s > spacing) & (s <= max_radius)
+    r[grow] = s[grow]
+    return r
+
+
 def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, spacing: float,
-                    margin: float = 0.0, resolution: float | None = None):
+                    margin: float = 0.0, resolution: float | None = None, max_radius: float = 0.0):
     """Point-on-face index of every rectangle of a grid on one plane.
 
     The covered area n σ² is measured as the union of discs of radius σ around the
@@ -54,6 +73,10 @@ def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, sp
         the noisy edge of a neighbouring surface (a ceiling meeting a wall) does not make
         the top of a thin wall look seen.
     resolution : raster cell, metres (default σ / 3, at least 1 cm).
+    max_radius : > σ: each disc's radius is its point's local spacing up to this
+        (:func:`local_radii`), so that a surface seen sparsely from far away (a ceiling seen
+        at a grazing angle, or through a door) counts as seen where its points lie evenly;
+        0: every disc has radius σ.
 
     Returns
     -------
@@ -94,9 +117,16 @@ def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, sp
     pu, pv = owner(pts[:, 0], u_edges, mu), owner(pts[:, 1], v_edges, mv)
     keep = (pu >= 0) & (pv >= 0)
     iu, iv, pu, pv = iu[keep], iv[keep], pu[keep], pv[keep]
-    k = int(np.ceil(spacing / h))
-    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-    disc = (xx**2 + yy**2) * h * h <= spacing * spacing
+    # radius classes: σ, and (adaptive) σ·1.5^j up to max_radius, each point in the largest
+    # class not above its local spacing
+    levels = [float(spacing)]
+    while max_radius > spacing and levels[-1] * 1.5 <= max_radius + 1e-12:
+        levels.append(levels[-1] * 1.5)
+    if len(levels) > 1:
+        r = local_radii(pts[keep], spacing, max_radius)
+        cls = np.searchsorted(np.asarray(levels), r * (1 + 1e-9), side="right") - 1
+    else:
+        cls = np.zeros(len(iu), dtype=np.int64)
     valid = (ou[:, None] >= 0) & (ov[None, :] >= 0)
     face = np.where(valid, ou[:, None] * b + ov[None, :], -1)
     covered = np.zeros(a * b)
@@ -107,9 +137,13 @@ def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, sp
             sel = (pu % 2 == cu) & (pv % 2 == cv)
             if not sel.any():
                 continue
-            grid = np.zeros((nu, nv), dtype=bool)
-            grid[iu[sel], iv[sel]] = True
-            cover = binary_dilation(grid, structure=disc)
+            cover = np.zeros((nu, nv), dtype=bool)
+            for c in np.unique(cls[sel]):
+                k = int(np.ceil(levels[c] / h))
+                yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+                grid = np.zeros((nu, nv), dtype=bool)
+                grid[iu[sel & (cls == c)], iv[sel & (cls == c)]] = True
+                cover |= binary_dilation(grid, structure=(xx**2 + yy**2) * h * h <= levels[c] ** 2)
             mine = valid & ((ou[:, None] % 2) == cu) & ((ov[None, :] % 2) == cv) & cover
             covered += np.bincount(face[mine], minlength=a * b)
     covered = covered.reshape(a, b)

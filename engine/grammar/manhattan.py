@@ -36,7 +36,9 @@ Departures from the thesis (docs/method.md §2):
 * Point-on-face index: covered share of the face (see :mod:`.ipof`).
 * Classify: a thin cuboid is a wall only if its top is not seen and does not touch an
   interior shape; a cuboid thin in both directions (a wall junction, whose faces are
-  hidden inside the walls) between at least two walls is a wall.
+  hidden inside the walls) between at least two walls is a wall. A cuboid on the floor
+  whose ceiling is seen only sparsely (``ipof_top_sparse``: each point covers its local
+  spacing, up to ``ceiling_reach`` σ) over a seen floor is interior (:func:`.rules.classify`).
 """
 from __future__ import annotations
 
@@ -364,8 +366,15 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     FY = faces_on(1, Y, X, Z, 0, 2)  # (ny+1, nx, nz)
     # a ceiling's face: the points on that ceiling (below), not every horizontal point near it
     FZ = faces_on(2, Z, X, Y, 0, 1, skip=range(1, len(on_ceiling) + 1))  # (nz+1, nx, ny)
+    # and as seen from far away: each point's disc follows its local spacing (issue 19)
+    FZS = FZ.copy()
     for q, m in enumerate(on_ceiling):
         FZ[q + 1] = grid_face_index(p[m][:, :2], X, Y, spacing, margin)
+        if params.ceiling_reach > 1:
+            FZS[q + 1] = grid_face_index(p[m][:, :2], X, Y, spacing, margin,
+                                         max_radius=params.ceiling_reach * spacing)
+        else:
+            FZS[q + 1] = FZ[q + 1]
 
     # classify, top-down so that "top touches an interior shape" is known
     t_max = params.max_wall_thickness
@@ -388,7 +397,8 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                 else:
                     sides, thin_axis = max(sx, sy), None
                 support = {f"ipof_f{q}": float(v) for q, v in enumerate(f)}
-                support.update(ipof_top=float(f[1]), ipof_bottom=float(f[0]), ipof_sides=float(sides))
+                support.update(ipof_top=float(f[1]), ipof_bottom=float(f[0]), ipof_sides=float(sides),
+                               ipof_top_sparse=float(FZS[k + 1, i, j]))
                 above = k + 1 < nz and types[i, j, k + 1] == ShapeType.INTERIOR
                 typ, line = classify(support, tx or ty, above, params.tau, on_floor=k == 0,
                                      min_evidence=params.min_room_evidence)

@@ -257,6 +257,11 @@ class ManhattanParams:
     min_passage_width: Metres = 2.0
     """A thin unseen cuboid with floor under it between two interiors, at least this long, is a
     wide opening under a beam or lintel that joins them (narrower: a door); 0 turns it off."""
+    ceiling_reach: Factor = 3.0
+    """In the sparse ceiling index (``ipof_top_sparse``) a ceiling point covers a disc of its
+    local spacing, up to this many σ: a cuboid on the floor with its floor seen is interior
+    when its ceiling, seen sparsely from far away (at a grazing angle, over a cabinet), is
+    covered so (issue 19); ≤ 1 turns that off (the thesis's rule)."""
     min_room_evidence: Ratio = 0.1
     """A cuboid on the floor whose top is seen but whose floor and sides (all, or all but one
     under a partial top) are covered at most this much is no room part (a window head's

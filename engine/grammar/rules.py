@@ -75,6 +75,12 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float, *,
       glazing) — is exterior: the ceiling evidence is a window's head soffit in a glazed
       exterior wall, or an eave seen through the glazing, with no floor and no walls under it
       (issue 19: rooms never extend past the glazed envelope);
+    * a part on the floor whose floor is seen (IPoF(bottom) ≥ τ, or above ``min_evidence``
+      with at least two sides seen above it: a cabinet hides the floor) and whose ceiling is
+      seen only sparsely — covered at least τ when each point covers a disc of its local
+      spacing (``ipof_top_sparse``, ManhattanParams.ceiling_reach), not of σ — is interior: a
+      ceiling seen from far away, at a grazing angle or over a cabinet, is there (issue 19:
+      "not seen" is not "not there"); floor and sides keep a glazed wall's eave out;
     * otherwise → exterior space.
     """
     sides, top = support.get("ipof_sides", 0.0), support.get("ipof_top", 0.0)
@@ -89,6 +95,12 @@ def classify(support: dict, thin: bool, above_interior: bool, tau: float, *,
                                         f"{sides_seen} side(s) seen (> {min_evidence:g}) -> exterior "
                                         "(a soffit or eave, not a room)")
         return ShapeType.INTERIOR, f"classify: IPoF(top)={top:.2f} >= tau={tau:g} -> interior"
+    sparse, bottom = support.get("ipof_top_sparse", top), support.get("ipof_bottom", 0.0)
+    sides_seen = sum(support.get(f"ipof_f{q}", 0.0) > min_evidence for q in range(2, 6))
+    if on_floor and sparse >= tau and (bottom >= tau or (bottom > min_evidence and sides_seen >= 2)):
+        return ShapeType.INTERIOR, (f"classify: IPoF(top)={top:.2f} < tau={tau:g} but the ceiling is seen "
+                                    f"sparsely (IPoF at its local spacing {sparse:.2f}) over a seen floor "
+                                    f"(IPoF(bottom)={bottom:.2f}, {sides_seen} side(s) seen) -> interior")
     if above_interior:
         return ShapeType.INTERIOR, (f"classify: IPoF(top)={top:.2f} < tau={tau:g} "
                                     "but top touches an interior shape -> interior")

@@ -202,6 +202,31 @@ def test_point_on_face_index_is_covered_share():
     assert 0.55 <= v <= 1.0
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_point_on_face_index_follows_local_spacing(seed):
+    """A ceiling seen sparsely from far away (points 2.5 σ apart, evenly) is seen with the
+    adaptive radius, and barely without; isolated strays keep σ (issue 19)."""
+    rng = np.random.default_rng(seed)
+    sigma, far = 0.05, 0.125
+    g = np.arange(0.0, 2.0, far) + far / 2
+    uv = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2) + rng.normal(0, 0.01, (len(g) ** 2, 2))
+    edges = np.array([0.0, 2.0])
+    plain = grid_face_index(uv, edges, edges, sigma)[0, 0]
+    adaptive = grid_face_index(uv, edges, edges, sigma, max_radius=3 * sigma)[0, 0]
+    # discs of σ over a 2.5 σ lattice cover π/6.25 ≈ 0.5; of ≥ 2.25 σ (the class below
+    # 2.5 σ·√(π/4)) nearly all
+    assert plain <= 0.6 and adaptive >= 0.9, (plain, adaptive)
+    # 12 strays over 4 m² (2 per m² is no surface): each covers σ only, adaptive or not
+    strays = rng.uniform(0, 2, (12, 2))
+    s_plain = grid_face_index(strays, edges, edges, sigma)[0, 0]
+    s_adapt = grid_face_index(strays, edges, edges, sigma, max_radius=3 * sigma)[0, 0]
+    assert s_adapt == pytest.approx(s_plain, abs=1e-12) and s_adapt < 0.03
+    # and a dense face is not changed by it
+    dense = rng.random((int(4.0 / sigma**2), 2)) * 2.0
+    assert grid_face_index(dense, edges, edges, sigma, max_radius=3 * sigma)[0, 0] == pytest.approx(
+        grid_face_index(dense, edges, edges, sigma)[0, 0], abs=0.02)
+
+
 def test_classify_rule_conditions():
     t = 0.3
     wall, line = classify({"ipof_sides": 0.6, "ipof_top": 0.0}, True, False, t)
@@ -224,6 +249,20 @@ def test_classify_rule_conditions():
         # floor under it, two walls, or one wall under a well seen ceiling: a room part
         assert classify({**soffit, **change}, False, False, t, on_floor=True, min_evidence=0.1)[0] == \
             ShapeType.INTERIOR
+    # a ceiling seen only sparsely (a strip over a cabinet, seen from far away): interior over
+    # a seen floor, or some floor and two sides seen; not alone, nor above the floor
+    strip = {"ipof_top": 0.21, "ipof_top_sparse": 0.45, "ipof_bottom": 0.35, "ipof_sides": 0.24,
+             "ipof_f2": 0.0, "ipof_f3": 0.0, "ipof_f4": 0.0, "ipof_f5": 0.0}
+    typ, line = classify(strip, False, False, t, on_floor=True, min_evidence=0.1)
+    assert typ == ShapeType.INTERIOR and "sparsely" in line
+    hidden = {**strip, "ipof_bottom": 0.17}  # a cabinet hides most of the floor
+    assert classify(hidden, False, False, t, on_floor=True, min_evidence=0.1)[0] == ShapeType.EXTERIOR
+    assert classify({**hidden, "ipof_f3": 0.19, "ipof_f5": 0.29}, False, False, t, on_floor=True,
+                    min_evidence=0.1)[0] == ShapeType.INTERIOR
+    for change in ({"ipof_top_sparse": 0.29}, {"ipof_bottom": 0.05, "ipof_f3": 0.4, "ipof_f5": 0.4}):
+        assert classify({**strip, **change}, False, False, t, on_floor=True, min_evidence=0.1)[0] == \
+            ShapeType.EXTERIOR
+    assert classify(strip, False, False, t, on_floor=False, min_evidence=0.1)[0] == ShapeType.EXTERIOR
 
 
 def test_union_of_boxes():

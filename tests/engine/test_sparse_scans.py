@@ -150,3 +150,7 @@ def test_mobile_partitions_keep_rooms_apart(seed):
     r = room_scores(m, sc.truth)
     assert r["matched"] == r["true"] == 8 and r["model"] == 8, r
     assert r["mean_iou"] >= 0.95, r
+    # and no room loses the strip over a cabinet against the partition (its ceiling seen only
+    # sparsely from the mobile path: IoU 0.90 on seed 3 before the sparse ceiling index;
+    # 0.998-0.999 every room, seeds 2, 3)
+    assert min(r["per_storey"][0]["ious"]) >= 0.95, r["per_storey"][0]["ious"]
