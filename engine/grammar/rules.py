@@ -120,6 +120,12 @@ def _open_boundary(a: Shape, fa: int, b: Shape, fb: int) -> bool:
     return a.attributes.get("open_face") == fa or b.attributes.get("open_face") == fb
 
 
+def _joined(a: Shape, fa: int, b: Shape, fb: int) -> bool:
+    """The face shared by parts ``a`` and ``b`` is furniture, not a wall (``attributes
+    ["joined_faces"]``, set by :func:`reject_implausible_spaces`): their spaces are one."""
+    return fa in a.attributes.get("joined_faces", ()) or fb in b.attributes.get("joined_faces", ())
+
+
 def _face_ipof(s: Shape, face: int) -> float:
     return float(s.support.get(f"ipof_f{face}", 0.0))
 
@@ -170,7 +176,7 @@ def part_relations(parts: list[Shape], tau: float, touching=None) -> tuple[list[
             if _open_boundary(a, t.fa, b, t.fb):  # split there, connected without a wall
                 if a.type == ShapeType.INTERIOR:
                     rel.append(Relation("connectivity", a.id, b.id))
-            elif f < tau:
+            elif f < tau or _joined(a, t.fa, b, t.fb):
                 connected.append((a.id, b.id))
                 if a.type == ShapeType.INTERIOR:
                     rel.append(Relation("connectivity", a.id, b.id))
@@ -474,6 +480,10 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
         width = min(float(min(size[0], size[1])), _equivalent_width(area, perim))
         height = float(sp.attributes.get("height", size[2]))
         if width < min_width:
+            join = _strip_join(members, parts, tau if tau is not None else DEFAULT_TAU, min_floor_evidence)
+            if join:
+                new.extend(join)
+                continue
             kind, why = ShapeType.WALL, f"{width:.2f} m wide < {min_width} m: the gap inside a wall"
         elif height < min_height or area < min_area:
             kind, why = ShapeType.EXTERIOR, f"{area:.2f} m², {height:.2f} m high: too small or low for a room"
@@ -490,6 +500,50 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
         return model
     log.info("evidence rule: %d part(s) of implausible spaces reclassified", len(new))
     return derive_topology(model.replace_shapes(*new), tau)
+
+
+def _strip_join(members: list[Shape], parts: dict, tau: float, min_floor: float) -> list[Shape]:
+    """A narrow space whose ceiling is seen over every part (IPoF(top) ≥ τ), whose floor
+    shows (IPoF(bottom) above ``min_floor`` somewhere) and whose long sides are not both seen
+    (IPoF ≥ τ) is no gap inside a wall — that has neither, or shows both of the wall's faces —
+    but a strip of a room cut off by the front of furniture (a cabinet against a partition). Its parts join the interior parts of the same storey and top height across
+    the face carrying less surface (``attributes["joined_faces"]``). Returns the changed
+    parts, [] when it is no such strip (or has no such neighbour)."""
+    if not members or min_floor <= 0 or any(m.grid is None for m in members):
+        return []
+    if any(float(m.support.get("ipof_top", 0.0)) < tau for m in members) or \
+            max(float(m.support.get("ipof_bottom", 0.0)) for m in members) <= min_floor:
+        return []
+    # both long sides seen: the two faces of one wall (its top and floor "seen" are the
+    # ceiling's and floor's edges), not furniture in front of a wall
+    lo, hi = _bounds_union(members).min(axis=0)[0], _bounds_union(members).max(axis=0)[1]
+    sides = (3, 5) if hi[0] - lo[0] <= hi[1] - lo[1] else (2, 4)
+    if all(np.mean([_face_ipof(m, q) for m in members]) >= tau for q in sides):
+        return []
+    by_grid = {(p.storey, p.grid): p for p in parts.values() if p.grid is not None}
+    mine = {m.id for m in members}
+    # faces 2..5: −y, +x, +y, −x
+    steps = {2: (0, -1), 3: (1, 0), 4: (0, 1), 5: (-1, 0)}
+    best = None
+    for q, (di, dj) in steps.items():
+        score, n = 0.0, 0
+        for m in members:
+            i, j, k = m.grid
+            nb = by_grid.get((m.storey, (i + di, j + dj, k)))
+            if nb is None or nb.id in mine:
+                continue
+            if nb.type != ShapeType.INTERIOR or abs(float(nb.bounds[1, 2]) - float(m.bounds[1, 2])) > 0.05:
+                score, n = None, 0
+                break
+            score, n = score + _face_ipof(m, q), n + 1
+        if score is not None and n and (best is None or score / n < best[1]):
+            best = (q, score / n)
+    if best is None:
+        return []
+    q, why = best[0], (f"evidence: a strip with its ceiling and floor seen, not a wall's inside: "
+                       f"joins the room across face {best[0]} (IPoF {best[1]:.2f}, furniture)")
+    return [m.with_(attributes={**m.attributes, "joined_faces": tuple(sorted({*m.attributes.get("joined_faces", ()), q}))},
+                    log=tuple(m.log) + (why,)) for m in members]
 
 
 def _name(merged: list[Shape], corridor_aspect: float, corridor_width: float) -> list[Shape]:

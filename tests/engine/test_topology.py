@@ -219,3 +219,35 @@ def test_a_space_with_no_floor_seen_is_furniture():
     assert len(model(0.05).spaces) == 1 and model(0.05)["s0_c003_000_00"].type == ShapeType.EXTERIOR
     assert len(model(0.3).spaces) == 2  # some floor under it: a room (a closet)
     assert len(model(0.05, evidence=0.0).spaces) == 2  # the rule off
+
+
+def test_a_strip_beside_a_cabinet_joins_its_room():
+    """The evidence rule's narrow spaces (docs/method.md §2): a 0.42 m strip between a room and
+    a partition, cut off by a cabinet's front (IPoF 0.36 ≥ τ), is a strip of the room when its
+    ceiling and some floor are seen — it joins the room across the cabinet's front; with no
+    ceiling or no floor seen, or both long sides seen (a partition's two faces), it is a wall (office_mw mobile seed 4: the room lost
+    the strip to a 0.56 m wall, IoU 0.90)."""
+    from engine.grammar.rules import reject_implausible_spaces
+
+    I, W = ShapeType.INTERIOR, ShapeType.WALL
+
+    def model(top=0.44, floor=0.21, room_top=2.5, behind=0.23):
+        room = _part(0, 0, (0, 0, 0), (4, 3, room_top), I)
+        strip = _part(1, 0, (4, 0, 0), (4.42, 3, 2.5), I)
+        # the partition's face behind the cabinet is seen above it only (behind < τ)
+        strip = strip.with_(support={**strip.support, "ipof_f0": floor, "ipof_bottom": floor,
+                                     "ipof_f1": top, "ipof_top": top, "ipof_f5": 0.36, "ipof_f3": behind})
+        shapes = [room.with_(support={**room.support, "ipof_f3": 0.36}), strip,
+                  _part(2, 0, (4.42, 0, 0), (4.57, 3, 2.5), W), _part(3, 0, (4.57, 0, 0), (7, 3, 2.5), I)]
+        m = BuildingModel(shapes=tuple(shapes), provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
+        return reject_implausible_spaces(derive_topology(m), 0.6, 1.0, 1.8, 0.3, min_floor_evidence=0.1)
+
+    joined = model()
+    assert len(joined.spaces) == 2
+    room = joined.top_level("s0_c000_000_00")
+    assert set(room.children) == {"s0_c000_000_00", "s0_c001_000_00"}
+    assert "joins the room" in joined["s0_c001_000_00"].log[-1]
+    for change in ({"top": 0.1}, {"floor": 0.05}, {"room_top": 2.2}, {"behind": 0.56}):
+        # no ceiling, no floor, a room of another height, or both faces seen: a wall
+        m = model(**change)
+        assert m["s0_c001_000_00"].type == W and len(m.spaces) == 2, change
