@@ -52,7 +52,8 @@ def local_radii(uv: np.ndarray, spacing: float, max_radius: float, k: int = 4) -
 
 
 def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, spacing: float,
-                    margin: float = 0.0, resolution: float | None = None, max_radius: float = 0.0):
+                    margin: float = 0.0, resolution: float | None = None, max_radius: float = 0.0,
+                    radii: np.ndarray | None = None):
     """Point-on-face index of every rectangle of a grid on one plane.
 
     The covered area n σ² is measured as the union of discs of radius σ around the
@@ -77,6 +78,9 @@ def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, sp
         (:func:`local_radii`), so that a surface seen sparsely from far away (a ceiling seen
         at a grazing angle, or through a door) counts as seen where its points lie evenly;
         0: every disc has radius σ.
+    radii : (n,) float64 or None — each point's radius, metres, already known (e.g.
+        :func:`local_radii` over a larger neighbourhood than the grid's); overrides
+        ``max_radius``.
 
     Returns
     -------
@@ -107,6 +111,8 @@ def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, sp
     iv = np.floor((uv[:, 1] - v0) / h).astype(np.int64)
     ok = (iu >= 0) & (iu < nu) & (iv >= 0) & (iv < nv)
     iu, iv, pts = iu[ok], iv[ok], uv[ok]
+    if radii is not None:
+        radii = np.asarray(radii, dtype=np.float64)[ok]
 
     def owner(t, edges, m):
         i = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, len(edges) - 2)
@@ -119,12 +125,13 @@ def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, sp
     iu, iv, pu, pv = iu[keep], iv[keep], pu[keep], pv[keep]
     # radius classes: σ, and (adaptive) σ·1.5^j up to max_radius, each point in the largest
     # class not above its local spacing
+    top = float(radii[keep].max(initial=spacing)) if radii is not None else max_radius
     levels = [float(spacing)]
-    while max_radius > spacing and levels[-1] * 1.5 <= max_radius + 1e-12:
+    while top > spacing and levels[-1] * 1.5 <= top + 1e-12:
         levels.append(levels[-1] * 1.5)
     if len(levels) > 1:
-        r = local_radii(pts[keep], spacing, max_radius)
-        cls = np.searchsorted(np.asarray(levels), r * (1 + 1e-9), side="right") - 1
+        r = radii[keep] if radii is not None else local_radii(pts[keep], spacing, max_radius)
+        cls = np.clip(np.searchsorted(np.asarray(levels), r * (1 + 1e-9), side="right") - 1, 0, None)
     else:
         cls = np.zeros(len(iu), dtype=np.int64)
     valid = (ou[:, None] >= 0) & (ov[None, :] >= 0)

@@ -58,7 +58,7 @@ from ..pointcloud import PointCloud
 from ..progress import Progress
 from ..segmentation.params import PreprocessParams
 from .geometry import box_of
-from .ipof import grid_face_index
+from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
 from .place import StoreyFrame, detect_levels, histogram_peaks, storey_chunks, storey_frame
 from .roof import roof_planes, slope_spaces
@@ -366,15 +366,9 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     FY = faces_on(1, Y, X, Z, 0, 2)  # (ny+1, nx, nz)
     # a ceiling's face: the points on that ceiling (below), not every horizontal point near it
     FZ = faces_on(2, Z, X, Y, 0, 1, skip=range(1, len(on_ceiling) + 1))  # (nz+1, nx, ny)
-    # and as seen from far away: each point's disc follows its local spacing (issue 19)
-    FZS = FZ.copy()
     for q, m in enumerate(on_ceiling):
         FZ[q + 1] = grid_face_index(p[m][:, :2], X, Y, spacing, margin)
-        if params.ceiling_reach > 1:
-            FZS[q + 1] = grid_face_index(p[m][:, :2], X, Y, spacing, margin,
-                                         max_radius=params.ceiling_reach * spacing)
-        else:
-            FZS[q + 1] = FZ[q + 1]
+    sparse = _sparse_tops(p[on_ceiling[0]][:, :2] if on_ceiling else p[:0, :2], FZ, X, Y, params, spacing, margin)
 
     # classify, top-down so that "top touches an interior shape" is known
     t_max = params.max_wall_thickness
@@ -397,8 +391,9 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                 else:
                     sides, thin_axis = max(sx, sy), None
                 support = {f"ipof_f{q}": float(v) for q, v in enumerate(f)}
-                support.update(ipof_top=float(f[1]), ipof_bottom=float(f[0]), ipof_sides=float(sides),
-                               ipof_top_sparse=float(FZS[k + 1, i, j]))
+                support.update(ipof_top=float(f[1]), ipof_bottom=float(f[0]), ipof_sides=float(sides))
+                if k == 0 and (i, j) in sparse:
+                    support["ipof_top_sparse"] = sparse[i, j]
                 above = k + 1 < nz and types[i, j, k + 1] == ShapeType.INTERIOR
                 typ, line = classify(support, tx or ty, above, params.tau, on_floor=k == 0,
                                      min_evidence=params.min_room_evidence)
@@ -427,6 +422,25 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     _wide_passages(shapes, types, params)
     _open_voids(shapes, types, xyz, normals, frame, params)
     return [shapes[key] for key in sorted(shapes)]
+
+
+def _sparse_tops(uv: np.ndarray, FZ: np.ndarray, X: np.ndarray, Y: np.ndarray, params: ManhattanParams,
+                 spacing: float, margin: float) -> dict:
+    """The sparse ceiling index (``ipof_top_sparse``, :func:`.rules.classify`) of the cuboids
+    on the floor that it may turn interior — top not seen (IPoF < τ), some floor seen (IPoF >
+    ``min_room_evidence``) — {(i, j): index}. Each ceiling point (``uv``, the lowest ceiling
+    level's) covers a disc of its local spacing up to ``ceiling_reach`` σ, measured over the
+    points around the cuboid too; only those cuboids are rasterised."""
+    reach = params.ceiling_reach * spacing
+    if reach <= spacing or len(uv) == 0 or len(FZ) < 2:
+        return {}
+    out = {}
+    for i, j in np.argwhere((FZ[1] < params.tau) & (FZ[0] > params.min_room_evidence)):
+        lo, hi = np.array([X[i], Y[j]]) - 2 * reach, np.array([X[i + 1], Y[j + 1]]) + 2 * reach
+        near = uv[np.all((uv >= lo) & (uv <= hi), axis=1)]
+        r = local_radii(near, spacing, reach)
+        out[int(i), int(j)] = float(grid_face_index(near, X[i:i + 2], Y[j:j + 2], spacing, margin, radii=r)[0, 0])
+    return out
 
 
 def _wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams) -> None:

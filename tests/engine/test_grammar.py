@@ -13,6 +13,7 @@ from shapely.geometry import Point, Polygon
 from engine.errors import Cancelled, EmptyCloudError, ReconstructionError
 from engine.grammar import (ManhattanParams, classify, face_index, grid_face_index, reconstruct_grammar,
                             reconstruct_manhattan, union_of_boxes)
+from engine.grammar.ipof import local_radii
 from engine.grammar.params import estimate_spacing
 from engine.model import BuildingModel, ShapeType
 from engine.pointcloud import PointCloud
@@ -216,6 +217,9 @@ def test_point_on_face_index_follows_local_spacing(seed):
     # discs of σ over a 2.5 σ lattice cover π/6.25 ≈ 0.5; of ≥ 2.25 σ (the class below
     # 2.5 σ·√(π/4)) nearly all
     assert plain <= 0.6 and adaptive >= 0.9, (plain, adaptive)
+    # radii measured beforehand (over a larger neighbourhood) give the same index
+    given = grid_face_index(uv, edges, edges, sigma, radii=local_radii(uv, sigma, 3 * sigma))[0, 0]
+    assert given == pytest.approx(adaptive, abs=1e-12)
     # 12 strays over 4 m² (2 per m² is no surface): each covers σ only, adaptive or not
     strays = rng.uniform(0, 2, (12, 2))
     s_plain = grid_face_index(strays, edges, edges, sigma)[0, 0]
