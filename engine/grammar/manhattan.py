@@ -649,7 +649,7 @@ def _with_sloped_ceiling(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFram
 
     A storey whose top is sloped (pitched roof slabs, no flat ceiling over most of it) has
     more sloped points (``sloped_normal_min`` ≤ |n_z| < cos θ) in its upper half than
-    horizontal points at its top level: those sloped points are copied onto the top level
+    horizontal points at its ceiling levels there: those sloped points are copied onto the top level
     (normal up), so the grammar sees the ceiling that covers the rooms under the roof and
     the storey's grid reaches the roof's seen extent (every sloped point higher than
     ``sloped_min_height`` above the floor, down to the eaves, over the storey's floor).
@@ -662,7 +662,10 @@ def _with_sloped_ceiling(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFram
     top = frame.ceiling
     upper = (xyz[:, 2] > frame.floor + 0.5 * (top - frame.floor)) & (xyz[:, 2] <= top + d)
     slope = upper & (nz >= params.sloped_normal_min) & (nz < cos_t)
-    flat = (np.abs(xyz[:, 2] - top) <= d) & (nz >= cos_t)
+    # flat ceilings at any of the storey's ceiling levels in its upper half: a storey whose
+    # rooms have flat ceilings under a small higher one (a hallway 0.3 m higher, a stair
+    # hall) is no attic, however many tilted normals its wall tops have
+    flat = upper & (nz >= cos_t) & np.any([np.abs(xyz[:, 2] - c) <= d for c in frame.ceilings], axis=0)
     ns, nf = int(slope.sum()), int(flat.sum())
     if ns <= params.sloped_ceiling_ratio * max(nf, 1):
         return xyz, normals, None

@@ -252,7 +252,7 @@ class ManhattanParams:
     """Sloped points this far above an attic's floor and higher are roof undersides, metres."""
     sloped_ceiling_ratio: Factor = 3.0
     """A storey whose upper half holds this many times more sloped points than horizontal
-    points at its top level has a sloped top (an attic): its roof undersides stand for the
+    points at its ceiling levels has a sloped top (an attic): its roof undersides stand for the
     ceiling."""
     min_passage_width: Metres = 2.0
     """A thin unseen cuboid with floor under it between two interiors, at least this long, is a

@@ -367,3 +367,35 @@ def test_wide_passage_joins_rooms(length, bottom, face, expect):
     shapes, types = _row_of_cuboids((4.0, 0.24, 1.5), length, bottom, {2: face, 4: 0.08}, (I, E, E))
     _wide_passages(shapes, types, ManhattanParams())  # outside on one side: never a passage
     assert shapes[(0, 1, 0)].type == E
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_attic_needs_the_flat_ceilings_to_be_few(seed):
+    """A storey is an attic (its sloped points copied onto its top as ceiling) only when they
+    outnumber the flat points at all its ceiling levels in its upper half, not at its top
+    level alone: Duplex level 2 (mobile, seed 6) has flat 5.7 m ceilings under a small 6.63 m
+    one, and the tilted normals of its wall tops (9,201 points against 2,008 at 6.63 m, 45,964
+    at both levels) made it an "attic" whose copied points over the wall lines merged three
+    rooms."""
+    from engine.grammar.manhattan import _with_sloped_ceiling
+    from engine.grammar.place import StoreyFrame
+
+    rng = np.random.default_rng(seed)
+    params = ManhattanParams(shape_buffer=0.05)
+
+    def plane(n, z, nz):
+        xyz = np.column_stack([rng.uniform(0, 8, n), rng.uniform(0, 8, n), np.full(n, z) + rng.normal(0, 0.005, n)])
+        nrm = np.column_stack([np.sqrt(1 - nz**2) * np.ones(n), np.zeros(n), np.full(n, nz)])
+        return xyz, nrm
+
+    floor = plane(20000, 0.0, 1.0)
+    low, high = plane(20000, 2.6, 1.0), plane(1000, 3.5, 1.0)
+    tilted = plane(4000, 2.4, 0.5)  # wall tops' normals, sloped
+    frame = StoreyFrame(0.0, (2.6, 3.5))
+    xyz, nrm = (np.vstack(a) for a in zip(floor, low, high, tilted))
+    out, _, under = _with_sloped_ceiling(xyz, nrm, frame, params)
+    assert under is None and out is xyz  # flat ceilings: no attic (4,000 sloped vs 21,000 flat)
+    # an attic: the same sloped points under a small flat top and no flat ceiling below it
+    xyz, nrm = (np.vstack(a) for a in zip(floor, high, tilted))
+    out, _, under = _with_sloped_ceiling(xyz, nrm, StoreyFrame(0.0, (3.5,)), params)
+    assert under is not None and len(out) == len(xyz) + len(under) and len(under) == 4000
