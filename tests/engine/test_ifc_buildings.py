@@ -110,12 +110,13 @@ def test_duplex_rooms(noise):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("noise", ["tls", pytest.param("mobile", marks=pytest.mark.xfail(
-    reason="seed 2 mobile: 16 spaces for 14 rooms (precision 0.875), no small one since the glazing rule",
-    strict=False))])
+@pytest.mark.parametrize("noise", ["tls", "mobile"])
 def test_duplex_no_extra_spaces(noise):
     # seed 2 TLS: a bedroom's wardrobe (1.1 m², its front cut at a wall line elsewhere) was a space
-    # of its own; no floor is seen under it, so it is furniture, not a room: 14 of 14, no extra
+    # of its own; no floor is seen under it, so it is furniture, not a room: 14 of 14, no extra.
+    # Seed 2 mobile: 16 spaces for 14 rooms while level 2 (flat ceilings under a higher hallway
+    # ceiling) was taken for an attic (docs/method.md §2 "Sloped tops"); 14 of 14 since
+    # (precision 1.0, mean IoU 0.97)
     sc, m, r = _run("duplex", noise)
     assert r["small_spurious"] == 0 and r["precision"] >= 0.95, r
 
