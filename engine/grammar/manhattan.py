@@ -368,7 +368,8 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     FZ = faces_on(2, Z, X, Y, 0, 1, skip=range(1, len(on_ceiling) + 1))  # (nz+1, nx, ny)
     for q, m in enumerate(on_ceiling):
         FZ[q + 1] = grid_face_index(p[m][:, :2], X, Y, spacing, margin)
-    sparse = _sparse_tops(p[on_ceiling[0]][:, :2] if on_ceiling else p[:0, :2], FZ, X, Y, params, spacing, margin)
+    lowest = p[on_ceiling[0]][:, :2] if on_ceiling else p[:0, :2]
+    sparse = _sparse_tops(lowest, FZ, X, Y, params, spacing, margin)
 
     # classify, top-down so that "top touches an interior shape" is known
     t_max = params.max_wall_thickness
@@ -439,7 +440,8 @@ def _sparse_tops(uv: np.ndarray, FZ: np.ndarray, X: np.ndarray, Y: np.ndarray, p
         lo, hi = np.array([X[i], Y[j]]) - 2 * reach, np.array([X[i + 1], Y[j + 1]]) + 2 * reach
         near = uv[np.all((uv >= lo) & (uv <= hi), axis=1)]
         r = local_radii(near, spacing, reach)
-        out[int(i), int(j)] = float(grid_face_index(near, X[i:i + 2], Y[j:j + 2], spacing, margin, radii=r)[0, 0])
+        index = grid_face_index(near, X[i:i + 2], Y[j:j + 2], spacing, margin, radii=r)
+        out[int(i), int(j)] = float(index[0, 0])
     return out
 
 

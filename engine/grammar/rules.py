@@ -506,9 +506,10 @@ def _strip_join(members: list[Shape], parts: dict, tau: float, min_floor: float)
     """A narrow space whose ceiling is seen over every part (IPoF(top) ≥ τ), whose floor
     shows (IPoF(bottom) above ``min_floor`` somewhere) and whose long sides are not both seen
     (IPoF ≥ τ) is no gap inside a wall — that has neither, or shows both of the wall's faces —
-    but a strip of a room cut off by the front of furniture (a cabinet against a partition). Its parts join the interior parts of the same storey and top height across
-    the face carrying less surface (``attributes["joined_faces"]``). Returns the changed
-    parts, [] when it is no such strip (or has no such neighbour)."""
+    but a strip of a room cut off by the front of furniture (a cabinet against a partition).
+    Its parts join the interior parts of the same storey and top height across the face
+    carrying less surface (``attributes["joined_faces"]``). Returns the changed parts, []
+    when it is no such strip (or has no such neighbour)."""
     if not members or min_floor <= 0 or any(m.grid is None for m in members):
         return []
     if any(float(m.support.get("ipof_top", 0.0)) < tau for m in members) or \
@@ -516,7 +517,8 @@ def _strip_join(members: list[Shape], parts: dict, tau: float, min_floor: float)
         return []
     # both long sides seen: the two faces of one wall (its top and floor "seen" are the
     # ceiling's and floor's edges), not furniture in front of a wall
-    lo, hi = _bounds_union(members).min(axis=0)[0], _bounds_union(members).max(axis=0)[1]
+    b = _bounds_union(members)
+    lo, hi = b[:, 0].min(axis=0), b[:, 1].max(axis=0)
     sides = (3, 5) if hi[0] - lo[0] <= hi[1] - lo[1] else (2, 4)
     if all(np.mean([_face_ipof(m, q) for m in members]) >= tau for q in sides):
         return []
@@ -542,7 +544,8 @@ def _strip_join(members: list[Shape], parts: dict, tau: float, min_floor: float)
         return []
     q, why = best[0], (f"evidence: a strip with its ceiling and floor seen, not a wall's inside: "
                        f"joins the room across face {best[0]} (IPoF {best[1]:.2f}, furniture)")
-    return [m.with_(attributes={**m.attributes, "joined_faces": tuple(sorted({*m.attributes.get("joined_faces", ()), q}))},
+    return [m.with_(attributes={**m.attributes,
+                                "joined_faces": tuple(sorted({*m.attributes.get("joined_faces", ()), q}))},
                     log=tuple(m.log) + (why,)) for m in members]
 
 
