@@ -435,10 +435,15 @@ def _sparse_tops(uv: np.ndarray, FZ: np.ndarray, X: np.ndarray, Y: np.ndarray, p
     reach = params.ceiling_reach * spacing
     if reach <= spacing or len(uv) == 0 or len(FZ) < 2:
         return {}
+    cand = np.argwhere((FZ[1] < params.tau) & (FZ[0] > params.min_room_evidence))
+    if not len(cand):
+        return {}
+    uv = uv[np.argsort(uv[:, 0], kind="stable")]  # one sort: each cuboid slices its x range
     out = {}
-    for i, j in np.argwhere((FZ[1] < params.tau) & (FZ[0] > params.min_room_evidence)):
+    for i, j in cand:
         lo, hi = np.array([X[i], Y[j]]) - 2 * reach, np.array([X[i + 1], Y[j + 1]]) + 2 * reach
-        near = uv[np.all((uv >= lo) & (uv <= hi), axis=1)]
+        a, b = np.searchsorted(uv[:, 0], lo[0], side="left"), np.searchsorted(uv[:, 0], hi[0], side="right")
+        near = uv[a:b][(uv[a:b, 1] >= lo[1]) & (uv[a:b, 1] <= hi[1])]
         r = local_radii(near, spacing, reach)
         index = grid_face_index(near, X[i:i + 2], Y[j:j + 2], spacing, margin, radii=r)
         out[int(i), int(j)] = float(index[0, 0])

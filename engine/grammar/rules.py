@@ -468,6 +468,7 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
     parts = {s.id: s for s in model.shapes if is_part(s)}
     if not parts:
         return model
+    by_grid = {(p.storey, p.grid): p for p in parts.values() if p.grid is not None}
     new = []
     for sp in model.spaces:
         if not sp.attributes.get("merged"):
@@ -480,7 +481,7 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
         width = min(float(min(size[0], size[1])), _equivalent_width(area, perim))
         height = float(sp.attributes.get("height", size[2]))
         if width < min_width:
-            join = _strip_join(members, parts, tau if tau is not None else DEFAULT_TAU, min_floor_evidence)
+            join = _strip_join(members, by_grid, tau if tau is not None else DEFAULT_TAU, min_floor_evidence)
             if join:
                 new.extend(join)
                 continue
@@ -502,14 +503,15 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
     return derive_topology(model.replace_shapes(*new), tau)
 
 
-def _strip_join(members: list[Shape], parts: dict, tau: float, min_floor: float) -> list[Shape]:
+def _strip_join(members: list[Shape], by_grid: dict, tau: float, min_floor: float) -> list[Shape]:
     """A narrow space whose ceiling is seen over every part (IPoF(top) ≥ τ), whose floor
     shows (IPoF(bottom) above ``min_floor`` somewhere) and whose long sides are not both seen
     (IPoF ≥ τ) is no gap inside a wall — that has neither, or shows both of the wall's faces —
     but a strip of a room cut off by the front of furniture (a cabinet against a partition).
     Its parts join the interior parts of the same storey and top height across the face
-    carrying less surface (``attributes["joined_faces"]``). Returns the changed parts, []
-    when it is no such strip (or has no such neighbour)."""
+    carrying less surface (``attributes["joined_faces"]``). ``by_grid``: the model's parts by
+    (storey, grid index). Returns the changed parts, [] when it is no such strip (or has no
+    such neighbour)."""
     if not members or min_floor <= 0 or any(m.grid is None for m in members):
         return []
     if any(float(m.support.get("ipof_top", 0.0)) < tau for m in members) or \
@@ -522,7 +524,6 @@ def _strip_join(members: list[Shape], parts: dict, tau: float, min_floor: float)
     sides = (3, 5) if hi[0] - lo[0] <= hi[1] - lo[1] else (2, 4)
     if all(np.mean([_face_ipof(m, q) for m in members]) >= tau for q in sides):
         return []
-    by_grid = {(p.storey, p.grid): p for p in parts.values() if p.grid is not None}
     mine = {m.id for m in members}
     # faces 2..5: −y, +x, +y, −x
     steps = {2: (0, -1), 3: (1, 0), 4: (0, 1), 5: (-1, 0)}
