@@ -36,6 +36,7 @@ from scipy import ndimage
 from ..errors import InputError
 from ..geometry.boxes import min_area_box
 from ..model import Polyhedron, Shape, ShapeType, Storey
+from .gaps import box_sum, face_present, gap_rectangles, hole_edge, near_points, observed_columns
 from .params import OpeningParams
 from .sills import low_quantile, split_by_bottom
 
@@ -163,81 +164,6 @@ def _face_fit(r: np.ndarray, u: np.ndarray, z: np.ndarray, length: float,
     if np.count_nonzero(np.bincount(sq) >= 3) < nb * (zb.max() + 1) / 3:
         return 0.0, float("nan"), 0
     return peak, mad, int(near.sum())
-
-
-# ----------------------------------------------------------------------------- rasters
-def _box(a: np.ndarray, k: int) -> np.ndarray:
-    """Sum of ``a`` over a k × k window (zero outside)."""
-    return ndimage.uniform_filter(a.astype(np.float64), size=k, mode="constant") * (k * k)
-
-
-def _presence(count: np.ndarray, params: OpeningParams) -> np.ndarray:
-    """Cells where the face is present: the kernel (smallest of 3..11 cells that expects
-    ``kernel_points`` from the local density) holds at least one point and
-    ``presence_share`` of the local density."""
-    big = max(3, int(round(params.density_window / params.cell)) | 1)
-    present = np.zeros(count.shape, bool)
-    chosen = np.zeros(count.shape, bool)
-    for k in (3, 5, 7, 9, 11):
-        box = _box(count, k)
-        occ = _box(box > 0, big)
-        ref = _box(box, big) / np.maximum(occ, 1e-9)
-        pick = ~chosen & ((ref >= params.kernel_points) | (k == 11))
-        present[pick] = (box[pick] >= np.maximum(params.presence_share * ref[pick], 1.0 - 1e-9))
-        chosen |= pick
-    return present
-
-
-def _runs(mask: np.ndarray, bridge: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Starts and stops of the runs of True in ``mask``, across breaks of at most ``bridge``."""
-    idx = np.flatnonzero(mask)
-    if not len(idx):
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    cut = np.flatnonzero(np.diff(idx) > bridge + 1)
-    return np.r_[idx[0], idx[cut + 1]], np.r_[idx[cut], idx[-1]] + 1
-
-
-def _longest_run(mask: np.ndarray, bridge: int = 0) -> tuple[int, int]:
-    """[start, stop) of the longest run of True across breaks of at most ``bridge`` False
-    (0, 0 when none)."""
-    a, b = _runs(mask, bridge)
-    if not len(a):
-        return 0, 0
-    k = int(np.argmax(b - a))
-    return int(a[k]), int(b[k])
-
-
-def _observed(cols: list, run: int, window: int) -> list:
-    """Per face, the columns where it is observed: where its points (and rays through it)
-    within ``window`` columns reach 5 % of the densest face's usual count, bridging
-    stretches without them of up to ``run`` columns."""
-    wins = [ndimage.convolve1d(cc, np.ones(window), mode="constant") for cc in cols]
-    ref = max(float(np.percentile(wv, 75)) for wv in wins)
-    out = []
-    for wv in wins:
-        obs = np.zeros(len(wv), bool)
-        for a, b in zip(*_runs(wv >= max(3.0, 0.05 * ref), run)):
-            obs[a:b] = True
-        out.append(obs)
-    return out
-
-
-def _rectangle(mask: np.ndarray, share: float, bridge: int) -> tuple[int, int, int, int]:
-    """The dominant rectangle [c0, c1) x [r0, r1) of a gap component's mask (rows and
-    columns at least ``share`` empty, across short breaks of ``bridge`` cells)."""
-    c0, c1, r0, r1 = 0, mask.shape[0], 0, mask.shape[1]
-    for _ in range(3):
-        cf = mask[:, r0:r1].mean(axis=1) if r1 > r0 else np.zeros(mask.shape[0])
-        a, b = _longest_run(cf >= share, bridge)
-        if b <= a:
-            return 0, 0, 0, 0
-        c0, c1 = a, b
-        rf = mask[c0:c1].mean(axis=0)
-        a, b = _longest_run(rf >= share, bridge)
-        if b <= a:
-            return 0, 0, 0, 0
-        r0, r1 = a, b
-    return c0, c1, r0, r1
 
 
 # ----------------------------------------------------------------------------- per-wall evidence
@@ -387,43 +313,7 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
 
 
 # ----------------------------------------------------------------------------- gaps
-def _merge(rects: list, gap: int) -> list:
-    """Merge rectangles [c0, c1, r0, r1] closer than ``gap`` cells along one axis that overlap
-    along the other by half the larger one's extent."""
-    rects = [list(r) for r in rects]
-    i = 0
-    while i < len(rects):
-        for j in range(i + 1, len(rects)):
-            a, b = rects[i], rects[j]
-            du, dz = max(a[0], b[0]) - min(a[1], b[1]), max(a[2], b[2]) - min(a[3], b[3])
-            ou = -du / max(1, a[1] - a[0], b[1] - b[0])  # overlap share of the larger one
-            oz = -dz / max(1, a[3] - a[2], b[3] - b[2])
-            if (du <= gap and oz >= 0.5) or (dz <= gap and ou >= 0.5):
-                rects[i] = [min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])]
-                del rects[j]
-                i = -1
-                break
-        i += 1
-    return [tuple(r) for r in rects]
-
-
-def _components(mask: np.ndarray, p: OpeningParams) -> list:
-    """Rectangles [c0, c1, r0, r1] (cells) of the empty components of ``mask``."""
-    lab, _ = ndimage.label(mask)
-    rects = []
-    for i, sl in enumerate(ndimage.find_objects(lab), start=1):
-        if sl is None:
-            continue
-        sub = lab[sl] == i
-        if sub.sum() < 4:
-            continue
-        c0, c1, r0, r1 = _rectangle(sub, p.rect_share, max(1, int(round(p.merge_gap / p.cell))))
-        if c1 - c0 >= 2 and r1 - r0 >= 2:
-            rects.append((c0 + sl[0].start, c1 + sl[0].start, r0 + sl[1].start, r1 + sl[1].start))
-    return _merge(rects, max(1, int(round(p.merge_gap / p.cell))))
-
-
-def _gap_rects(dd: _Data, p: OpeningParams) -> tuple[list, list]:
+def _gap_rects(dd: _Data, p: OpeningParams, external: bool = False) -> tuple[list, list]:
     """Candidate rectangles (full-raster cells) with their mode ("both": a hole through every
     observed face; 0 / 1: a gap on that face only), and the per-side observed columns."""
     c = p.cell
@@ -432,57 +322,21 @@ def _gap_rects(dd: _Data, p: OpeningParams) -> tuple[list, list]:
     r_hi = max(r_lo + 1, nz - r_lo)
     run = int(round(p.unobserved_run / c))
     cols = [dd.face[s][:, r_lo:r_hi].sum(axis=1) + dd.through[s][:, r_lo:r_hi].sum(axis=1) for s in (0, 1)]
-    obs = _observed(cols, run, int(round(p.density_window / c)) | 1)
-    empty = [~_presence(dd.face[s][:, r_lo:r_hi], p) for s in (0, 1)]
+    obs = observed_columns(cols, run, int(round(p.density_window / c)) | 1, ends=external)
+    empty = [~face_present(dd.face[s][:, r_lo:r_hi], p) for s in (0, 1)]
     o0, o1 = obs
     both = (empty[0] | ~o0[:, None]) & (empty[1] | ~o1[:, None]) & (o0 | o1)[:, None]
-    out = [((a, b, r0 + r_lo, r1 + r_lo), "both") for a, b, r0, r1 in _components(both, p)]
+    out = [((a, b, r0 + r_lo, r1 + r_lo), "both") for a, b, r0, r1 in gap_rectangles(both, p)]
     for s in (0, 1):
         if obs[1 - s].any():  # a face-only gap where the other face is there: a closed door?
             single = empty[s] & obs[s][:, None] & ~empty[1 - s]
-            out += [((a, b, r0 + r_lo, r1 + r_lo), s) for a, b, r0, r1 in _components(single, p)]
+            out += [((a, b, r0 + r_lo, r1 + r_lo), s) for a, b, r0, r1 in gap_rectangles(single, p)]
     return out, obs
 
 
 def _inner_faces(obs, c0: int, c1: int, outer: list) -> list:
     """The faces (0 left, 1 right) observed over most of columns c0..c1, outer faces left out."""
     return [s for s in (0, 1) if s not in outer and obs[s][c0:c1].mean() > 0.5]
-
-
-def _edge(coord, other, inside, lo, hi, olo, ohi, take_max) -> Optional[float]:
-    """Where the wall ends in ``coord`` within [lo, hi] (``other`` within [olo, ohi]): the
-    median of the ``inside`` points of a reveal (a dense plane across the thickness, 1 cm
-    histogram peak), else where the face points end (a few strays beyond)."""
-    m = (coord >= lo) & (coord <= hi) & (other >= olo) & (other <= ohi)
-    rev = coord[m & inside]
-    if len(rev) >= 6:
-        hist, edges = np.histogram(rev, np.arange(lo, hi + 0.01, 0.01))
-        if len(hist) >= 3:
-            win = ndimage.convolve1d(hist, np.ones(7), mode="constant")
-            k = int(np.argmax(win))
-            if win[k] >= max(6.0, 0.5 * len(rev), 3.0 * win.mean()):  # a plane, not spilled noise
-                ctr = edges[k] + 0.005
-                return float(np.median(rev[np.abs(rev - ctr) <= 0.035]))
-    # walking from the face into the hole, the face ends at the first gap much wider than
-    # the spacing of the points before it, with only strays (a tenth) beyond; the last
-    # point falls short of the end by about one spacing
-    m &= ~inside  # glazing and leaves stand in the hole: only the faces end at its edge
-    if m.sum() < 2:
-        return None
-    x = np.sort(coord[m] - lo if take_max else hi - coord[m])
-    n = len(x)
-    i = np.arange(n)
-    sp = (x - x[np.maximum(i - 10, 0)]) / np.maximum(np.minimum(i, 10), 1)
-    gap = np.append(np.diff(x), np.inf)
-    end = np.flatnonzero((gap > np.maximum(4 * sp, 0.03)) & (i >= min(2, n - 1)) & (i >= 0.9 * n - 1))
-    k = int(end[0]) if len(end) else n - 1
-    e = min(float(x[k] + sp[k]), hi - lo)
-    return lo + e if take_max else hi - e
-
-
-def _share(a: np.ndarray, k: int = 3) -> np.ndarray:
-    """Cells with a point within a k × k neighbourhood (boolean)."""
-    return _box(a, k) > 0 if a.size else np.zeros(a.shape, bool)
 
 
 def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leafy: bool,
@@ -503,15 +357,15 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
         keep &= cls != 2
     fu, fz, fin = dd.fu[keep], dd.fz[keep], cls[keep] == 2
     zlo, zhi = (z0 + p.edge_band if floor_reach else zb) + 0.05, zt - 0.05
-    el = _edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True)
-    er = _edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False)
+    el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol)
+    er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol)
     el = max(ul - c if el is None else max(el, ul - srch), 0.0)  # not past the run's ends
     er = min(ur + c if er is None else min(er, ur + srch), w.length)
     if er <= el:
         return None
-    et = z1 if ceil_reach else _edge(fz, fu, fin, zt - c, zt + srch, el + 0.05, er - 0.05, False)
+    et = z1 if ceil_reach else hole_edge(fz, fu, fin, zt - c, zt + srch, el + 0.05, er - 0.05, False, tol)
     et = zt + c if et is None else et
-    eb = z0 if floor_reach else _edge(fz, fu, fin, zb - srch, zb + c, el + 0.05, er - 0.05, True)
+    eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, el + 0.05, er - 0.05, True, tol)
     eb = zb - c if eb is None else eb
     width = er - el
     if floor_reach and side is None and not leafy:
@@ -527,7 +381,7 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
                 floor_reach, eb = False, z0 + float(np.median(seen))
         elif ib - ia > 2 and float((dd.low_face[ia + 1:ib - 1] > 0).mean()) >= 0.6:
             # the sill's top unseen, its face seen right above the floor all along the hole
-            top = _edge(fz, fu, fin, z0, zb + c, el + 0.05, er - 0.05, True)
+            top = hole_edge(fz, fu, fin, z0, zb + c, el + 0.05, er - 0.05, True)
             floor_reach, eb = False, max(z0 + p.min_sill, zb - c if top is None else top)
     if floor_reach:
         if not p.min_door_width <= width <= p.max_opening_width:
@@ -556,7 +410,7 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
         outer = [int(np.argmin([obs[0][c0:c1].mean(), obs[1][c0:c1].mean()]))]
     side = mode if mode != "both" else None
     leaf_sides = [side] if side is not None else [s for s in (0, 1) if s not in outer]
-    leafy = max([float(_share(dd.leaf[s][c0:c1, max(rb, r0):r1]).mean()) for s in leaf_sides],
+    leafy = max([float(near_points(dd.leaf[s][c0:c1, max(rb, r0):r1]).mean()) for s in leaf_sides],
                 default=0.0) >= p.leaf_share
     m = _measure(w, dd, rect, side, outer, obs, tol, leafy, p)
     if m is None or (side is not None and m[4] != "door"):
@@ -569,15 +423,15 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     lo = max(rb, int(round((eb - z0) / c)) + 1)
     hi = int(np.clip(round((et - z0) / c) - 1, lo + 1, nz))
     cells = (slice(a, b), slice(lo, hi))
-    seen = _share(dd.through[0][cells] + dd.through[1][cells])
+    seen = near_points(dd.through[0][cells] + dd.through[1][cells])
     f_through = float(seen.mean())
-    reached = seen | _share(dd.inside[cells])  # a leaf, glazing or reveal was hit there
-    f_occ = float((_share(dd.shadow[0][cells] + dd.shadow[1][cells]) & ~reached).mean())
-    f_front = max([float(_share(dd.front[s][cells]).mean()) for s in _inner_faces(obs, a, b, outer)],
+    reached = seen | near_points(dd.inside[cells])  # a leaf, glazing or reveal was hit there
+    f_occ = float((near_points(dd.shadow[0][cells] + dd.shadow[1][cells]) & ~reached).mean())
+    f_front = max([float(near_points(dd.front[s][cells]).mean()) for s in _inner_faces(obs, a, b, outer)],
                   default=0.0)
     n_beyond = int(sum(dd.front[s][cells].sum() for s in outer)) + int(dd.through[:, a:b, lo:hi].sum())
     both = (not w.external) and obs[0][a:b].mean() > 0.8 and obs[1][a:b].mean() > 0.8
-    f_floor = float((_box(dd.floor[a:b, None], 3)[:, 0] > 0).mean()) if kind != "window" else 0.0
+    f_floor = float((box_sum(dd.floor[a:b, None], 3)[:, 0] > 0).mean()) if kind != "window" else 0.0
     # reveals: jambs, head and sill inside the thickness, well above the noise spilling from
     # the faces (the wall's inside points per face point, times the face points there)
     spill = float(dd.inside.sum()) / max(float(dd.face.sum()), 1.0)
@@ -589,7 +443,7 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
             strips.append(np.s_[a:b, max(0, r - 2):r + 2])
     f_reveal = float(np.mean([dd.inside[st].sum() >= max(2.0, 3.0 * spill * dd.face[:, st[0], st[1]].sum())
                               for st in strips]))
-    f_leaf = max([float(_share(dd.leaf[s][cells]).mean()) for s in leaf_sides], default=0.0)
+    f_leaf = max([float(near_points(dd.leaf[s][cells]).mean()) for s in leaf_sides], default=0.0)
     occluded = f_occ >= p.max_occluded if dd.rays else f_front >= p.max_front_cover
     closed = kind == "door" and f_leaf >= p.leaf_share and f_through < p.min_seen_through
     if side is not None and not closed:
@@ -765,7 +619,7 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
     out: list[Shape] = []
     count = {"door": 0, "window": 0}
     for w, dd in zip(frames, data):
-        rects, obs = _gap_rects(dd, p)
+        rects, obs = _gap_rects(dd, p, w.external)
         found: list[dict] = []
         for rect, mode in sorted(rects, key=lambda r: r[1] != "both"):
             parts = split_by_bottom(dd, rect, p) if mode == "both" else [rect]

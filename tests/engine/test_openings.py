@@ -283,6 +283,77 @@ def test_openings_sharing_a_mullion_or_transom_meet_halfway():
     assert not _overlap(win(1.0, 2.0, 0.9, 1.4), win(2.5, 3.0, 0.9, 1.4), 0.05)  # apart
 
 
+@pytest.mark.parametrize("channel_row", [43, 44])
+def test_gaps_joined_by_a_thin_channel_are_each_an_opening(channel_row):
+    """Two windows and a door between them whose gaps touch through a thin empty band under
+    the ceiling (a mobile scan's sparse top rows: FZK-Haus's south wall gave one component
+    and kept only the door, its two 2 m windows lost on every mobile seed): a rectangle for
+    each, none widened by the band; the band itself is at most a strip too low for any
+    opening (the judge drops it)."""
+    from engine.elements.gaps import gap_rectangles
+
+    p = OpeningParams()
+    empty = np.zeros((240, 48), bool)  # 12 m x 2.4 m in 5 cm cells
+    empty[36:76, 20:44] = True  # window, u 1.8-3.8, z 1.0-2.2
+    empty[102:138, 0:45] = True  # door, u 5.1-6.9
+    empty[164:204, 20:44] = True  # window, u 8.2-10.2
+    empty[36:204, channel_row:channel_row + 2] = True  # the band joining them
+    rects = gap_rectangles(empty, p)
+    big = sorted((r[0], r[1]) for r in rects if (r[3] - r[2]) * p.cell >= p.min_window_height)
+    assert big == [(36, 76), (102, 138), (164, 204)], rects
+    single = np.zeros((240, 48), bool)
+    single[36:76, 20:44] = True
+    single[75:80, 30:33] = True  # a ragged edge stays part of it, not a second opening
+    assert gap_rectangles(single, p) == [(36, 76, 20, 44)], gap_rectangles(single, p)
+
+
+def test_a_wall_end_with_a_few_points_in_every_column_is_observed():
+    """A corner window: the face beside it is dense, over the glazing only its head and sill
+    hold points (sparse, far from a mobile scanner) up to the wall's end: the end stretch is
+    observed on an exterior wall, so the gap can run to the corner; an end without any point
+    is not, nor a stretch longer than a run, nor the sparse end of an interior wall's face (the
+    Duplex's level-1 stair-hall partition: a door beside it was split by the frame's points)."""
+    from engine.elements.gaps import observed_columns
+
+    cols = np.r_[np.full(200, 40.0), np.full(50, 1.0)]
+    assert observed_columns([cols, np.zeros(250)], 80, 21, ends=True)[0].all()
+    assert not observed_columns([cols, np.zeros(250)], 80, 21)[0][215:].any()
+    empty_end = np.r_[np.full(200, 40.0), np.zeros(50)]
+    obs = observed_columns([empty_end, np.zeros(250)], 80, 21, ends=True)[0]
+    assert obs[:200].all() and not obs[215:].any()
+    far = np.r_[np.full(100, 40.0), np.full(150, 1.0)]  # longer than a run: not observed
+    assert not observed_columns([far, np.zeros(250)], 80, 21, ends=True)[0][120:].any()
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_jamb_just_outside_the_search_window_is_still_the_edge(seed):
+    """The right jamb of a door on the cell edge (Duplex TLS, an exterior door: reveal plane
+    at u 6.04, the candidate's cells ending at 6.10, its edge looked for from 6.05): the
+    reveal is found a noise tolerance further into the hole (the door was measured to the
+    face points 20 cm on, 1.04 m for 0.81). Where the wider search adds no point, scattered
+    points inside the thickness (mobile noise) give the same edge as before: its histogram
+    keeps its 1 cm grid and the peak its bar (a 6 cm wider search made a 1.0 m door 1.24 m)."""
+    from engine.elements.gaps import hole_edge
+
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(0.3, 2.0, 400)
+    jamb = rng.normal(6.04, 0.004, 35)
+    face = np.sort(rng.uniform(6.24, 6.45, 300))  # the face resumes past a partition's end
+    coord = np.r_[jamb, face]
+    other = np.r_[z[:35], z[35:335]]
+    inside = np.r_[np.ones(35, bool), np.zeros(300, bool)]
+    args = (coord, other, inside, 6.05, 6.45, 0.2, 2.1, False)
+    assert hole_edge(*args) > 6.2  # the old search: the face's end
+    assert abs(hole_edge(*args, 0.015) - 6.04) < 0.01
+    for _ in range(50):  # house_multi_height mobile: 18 such points, the face resuming at 1.77
+        noise = rng.uniform(1.70, 2.10, 18)
+        f2 = np.sort(rng.uniform(1.77, 2.10, 300))
+        c2, o2 = np.r_[noise, f2], rng.uniform(0.3, 2.0, 318)
+        i2 = np.r_[np.ones(18, bool), np.zeros(300, bool)]
+        plain = hole_edge(c2, o2, i2, 1.70, 2.10, 0.2, 2.1, False)  # nothing more to see further in:
+        assert hole_edge(c2, o2, i2, 1.70, 2.10, 0.2, 2.1, False, 0.0537) == plain  # the same edge
+
+
 def test_a_closed_door_is_a_recessed_leaf_in_a_door_sized_gap():
     """A 4 cm leaf whose face is 3 cm behind room_a's wall face (8 cm behind room_b's)."""
     leaf = ((DOOR[0], T_INT / 2 - 0.07, 0.0), (DOOR[1], T_INT / 2 - 0.03, DOOR[3]))
@@ -399,7 +470,8 @@ def _scores(found, truth, tol=0.3):
 def test_office_doors_and_windows_are_found(synthetic_scene, seed, noise):
     """office_mw, 300k points: doors (eight open, one closed, one exterior) by centre within
     0.3 m, widths within 10 cm; measured P = R = 1.0, width errors up to 7 cm. Windows
-    (fifteen): measured P = 1.0, R >= 0.93 (sparse mobile walls)."""
+    (fifteen): measured P = R = 1.0 (seed 0 mobile R 0.93 while a gap component holding two
+    openings kept one); margin: one window."""
     scene = synthetic_scene("office_mw", seed, noise, 300_000)
     cl = scene.cloud
     ops = detect_openings(_runs(scene.truth), scene.truth.storeys, cl.xyz, scan_index=cl.scan_index,
@@ -409,7 +481,7 @@ def test_office_doors_and_windows_are_found(synthetic_scene, seed, noise):
     assert p >= 0.95 and r >= 0.95 and werr <= 0.10, (p, r, werr)
     windows = [o for o in ops if o.type == ShapeType.WINDOW]
     p, r, _ = _scores(windows, [s for s in scene.truth.shapes if s.type == ShapeType.WINDOW])
-    assert p >= 0.9 and r >= 0.85, (p, r)
+    assert p >= 0.9 and r >= 0.9, (p, r)
 
 
 @pytest.mark.slow

@@ -1,0 +1,194 @@
+"""Gaps in a wall's face rasters (docs/method.md §7.3): where a face is present and where it
+is observed, the rectangles of the empty components, and where a hole's edges lie (a
+reveal plane inside the thickness, else where the face points end). :mod:`.openings` reads
+them for every wall run."""
+from __future__ import annotations
+
+import math
+from typing import Optional
+
+import numpy as np
+from scipy import ndimage
+
+from .params import OpeningParams
+
+__all__ = ["box_sum", "face_present", "observed_columns", "gap_rectangles", "hole_edge", "near_points"]
+
+
+def box_sum(a: np.ndarray, k: int) -> np.ndarray:
+    """Sum of ``a`` over a k × k window (zero outside)."""
+    return ndimage.uniform_filter(a.astype(np.float64), size=k, mode="constant") * (k * k)
+
+
+def face_present(count: np.ndarray, params: OpeningParams) -> np.ndarray:
+    """Cells where the face is present: the kernel (smallest of 3..11 cells that expects
+    ``kernel_points`` from the local density) holds at least one point and
+    ``presence_share`` of the local density."""
+    big = max(3, int(round(params.density_window / params.cell)) | 1)
+    present = np.zeros(count.shape, bool)
+    chosen = np.zeros(count.shape, bool)
+    for k in (3, 5, 7, 9, 11):
+        box = box_sum(count, k)
+        occ = box_sum(box > 0, big)
+        ref = box_sum(box, big) / np.maximum(occ, 1e-9)
+        pick = ~chosen & ((ref >= params.kernel_points) | (k == 11))
+        present[pick] = (box[pick] >= np.maximum(params.presence_share * ref[pick], 1.0 - 1e-9))
+        chosen |= pick
+    return present
+
+
+def _runs(mask: np.ndarray, bridge: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Starts and stops of the runs of True in ``mask``, across breaks of at most ``bridge``."""
+    idx = np.flatnonzero(mask)
+    if not len(idx):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    cut = np.flatnonzero(np.diff(idx) > bridge + 1)
+    return np.r_[idx[0], idx[cut + 1]], np.r_[idx[cut], idx[-1]] + 1
+
+
+def _longest_run(mask: np.ndarray, bridge: int = 0) -> tuple[int, int]:
+    """[start, stop) of the longest run of True across breaks of at most ``bridge`` False
+    (0, 0 when none)."""
+    a, b = _runs(mask, bridge)
+    if not len(a):
+        return 0, 0
+    k = int(np.argmax(b - a))
+    return int(a[k]), int(b[k])
+
+
+def observed_columns(cols: list, run: int, window: int, ends: bool = False) -> list:
+    """Per face, the columns where it is observed: where its points (and rays through it)
+    within ``window`` columns reach 5 % of the densest face's usual count, bridging
+    stretches without them of up to ``run`` columns. ``ends`` (an exterior wall): a stretch
+    at the wall's end shorter than ``run`` is observed too when it holds at least three
+    points per window everywhere (a corner window's head and sill, far from the scanner; on
+    an interior wall a sparse face beside a door would split the door)."""
+    wins = [ndimage.convolve1d(cc, np.ones(window), mode="constant") for cc in cols]
+    ref = max(float(np.percentile(wv, 75)) for wv in wins)
+    out = []
+    for wv in wins:
+        obs = np.zeros(len(wv), bool)
+        for a, b in zip(*_runs(wv >= max(3.0, 0.05 * ref), run)):
+            obs[a:b] = True
+        seen = np.flatnonzero(obs)
+        if ends and len(seen):
+            for sl in (np.s_[:seen[0]], np.s_[seen[-1] + 1:]):
+                if 0 < len(wv[sl]) <= run and (wv[sl] >= 3.0).all():
+                    obs[sl] = True
+        out.append(obs)
+    return out
+
+
+def _rectangle(mask: np.ndarray, share: float, bridge: int) -> tuple[int, int, int, int]:
+    """The dominant rectangle [c0, c1) x [r0, r1) of a gap component's mask (rows and
+    columns at least ``share`` empty, across short breaks of ``bridge`` cells)."""
+    c0, c1, r0, r1 = 0, mask.shape[0], 0, mask.shape[1]
+    for _ in range(3):
+        cf = mask[:, r0:r1].mean(axis=1) if r1 > r0 else np.zeros(mask.shape[0])
+        a, b = _longest_run(cf >= share, bridge)
+        if b <= a:
+            return 0, 0, 0, 0
+        c0, c1 = a, b
+        rf = mask[c0:c1].mean(axis=0)
+        a, b = _longest_run(rf >= share, bridge)
+        if b <= a:
+            return 0, 0, 0, 0
+        r0, r1 = a, b
+    return c0, c1, r0, r1
+
+
+def _merge(rects: list, gap: int) -> list:
+    """Merge rectangles [c0, c1, r0, r1] closer than ``gap`` cells along one axis that overlap
+    along the other by half the larger one's extent."""
+    rects = [list(r) for r in rects]
+    i = 0
+    while i < len(rects):
+        for j in range(i + 1, len(rects)):
+            a, b = rects[i], rects[j]
+            du, dz = max(a[0], b[0]) - min(a[1], b[1]), max(a[2], b[2]) - min(a[3], b[3])
+            ou = -du / max(1, a[1] - a[0], b[1] - b[0])  # overlap share of the larger one
+            oz = -dz / max(1, a[3] - a[2], b[3] - b[2])
+            if (du <= gap and oz >= 0.5) or (dz <= gap and ou >= 0.5):
+                rects[i] = [min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])]
+                del rects[j]
+                i = -1
+                break
+        i += 1
+    return [tuple(r) for r in rects]
+
+
+def gap_rectangles(mask: np.ndarray, p: OpeningParams) -> list:
+    """Rectangles [c0, c1, r0, r1] (cells) of the empty components of ``mask``.
+
+    A component may hold several openings joined by thin empty channels (a sparse band
+    under the ceiling links two windows and a door between them on a mobile scan): its
+    dominant rectangle is taken, its columns cleared (with a margin wider than the merge
+    gap, so that the ragged edge of one gap does not come back as another and widen it), and
+    what is left is looked at again, after every first rectangle (which the caller prefers
+    when two overlap).
+    """
+    bridge = max(1, int(round(p.merge_gap / p.cell)))
+    rects = []
+    todo = [(mask, 0, 0)]
+    while todo:
+        m, dc, dr = todo.pop(0)
+        lab, _ = ndimage.label(m)
+        for i, sl in enumerate(ndimage.find_objects(lab), start=1):
+            if sl is None:
+                continue
+            sub = lab[sl] == i
+            if sub.sum() < 4:
+                continue
+            c0, c1, r0, r1 = _rectangle(sub, p.rect_share, bridge)
+            if c1 - c0 < 2 or r1 - r0 < 2:
+                continue
+            x0, y0 = dc + sl[0].start, dr + sl[1].start
+            rects.append((c0 + x0, c1 + x0, r0 + y0, r1 + y0))
+            rest = sub.copy()
+            rest[max(0, c0 - bridge - 1):c1 + bridge + 1] = False
+            if rest.sum() >= 4:
+                todo.append((rest, x0, y0))
+    return _merge(rects, bridge)
+
+
+def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 0.0) -> Optional[float]:
+    """Where the wall ends in ``coord`` within [lo, hi] (``other`` within [olo, ohi]): the
+    median of the ``inside`` points of a reveal (a dense plane across the thickness, 1 cm
+    histogram peak; looked for ``inward`` metres — the faces' noise tolerance — further into
+    the hole too: a jamb on the candidate's cell edge falls either side of it), else where
+    the face points end (a few strays beyond)."""
+    band = (other >= olo) & (other <= ohi)
+    m = (coord >= lo) & (coord <= hi) & band
+    ext = 0.01 * math.ceil(inward / 0.01 - 1e-9)  # whole 1 cm bins: the histogram keeps its grid
+    r_lo, r_hi = (lo, hi + ext) if take_max else (lo - ext, hi)
+    rev = coord[(coord >= r_lo) & (coord <= r_hi) & band & inside]
+    if len(rev) >= 6:
+        hist, edges = np.histogram(rev, np.arange(r_lo, r_hi + 0.01, 0.01))
+        # the bar is the mean over [lo, hi]'s bins: searching further in must not lower it
+        nb = max(1, len(np.arange(lo, hi + 0.01, 0.01)) - 1)
+        if len(hist) >= 3:
+            win = ndimage.convolve1d(hist, np.ones(7), mode="constant")
+            k = int(np.argmax(win))
+            if win[k] >= max(6.0, 0.5 * len(rev), 3.0 * win.sum() / nb):  # a plane, not spilled noise
+                ctr = edges[k] + 0.005
+                return float(np.median(rev[np.abs(rev - ctr) <= 0.035]))
+    # walking from the face into the hole, the face ends at the first gap much wider than
+    # the spacing of the points before it, with only strays (a tenth) beyond; the last
+    # point falls short of the end by about one spacing
+    m &= ~inside  # glazing and leaves stand in the hole: only the faces end at its edge
+    if m.sum() < 2:
+        return None
+    x = np.sort(coord[m] - lo if take_max else hi - coord[m])
+    n = len(x)
+    i = np.arange(n)
+    sp = (x - x[np.maximum(i - 10, 0)]) / np.maximum(np.minimum(i, 10), 1)
+    gap = np.append(np.diff(x), np.inf)
+    end = np.flatnonzero((gap > np.maximum(4 * sp, 0.03)) & (i >= min(2, n - 1)) & (i >= 0.9 * n - 1))
+    k = int(end[0]) if len(end) else n - 1
+    e = min(float(x[k] + sp[k]), hi - lo)
+    return lo + e if take_max else hi - e
+
+
+def near_points(a: np.ndarray, k: int = 3) -> np.ndarray:
+    """Cells with a point within a k × k neighbourhood (boolean)."""
+    return box_sum(a, k) > 0 if a.size else np.zeros(a.shape, bool)
