@@ -72,23 +72,26 @@ def voxel_downsample(cloud: PointCloud, voxel_size: float) -> tuple[PointCloud, 
     return cloud.subset(kept), kept, voxel_of
 
 
-def _voxel_count(xyz: np.ndarray, voxel_size: float) -> int:
-    """How many voxels of edge ``voxel_size`` the points occupy (what :func:`_voxel_keys` would
-    keep, at half its cost: a sort of the keys, no stable argsort)."""
-    if len(xyz) == 0:
-        return 0
+def _voxel_key(xyz: np.ndarray, voxel_size: float) -> np.ndarray:
+    """(n,) int64 key of each point's voxel of edge ``voxel_size`` (grid from the minimum)."""
     q = np.floor((xyz - xyz.min(axis=0)) / voxel_size).astype(np.int64)
     dims = q.max(axis=0) + 1
-    key = (q[:, 0] * dims[1] + q[:, 1]) * dims[2] + q[:, 2]
+    return (q[:, 0] * dims[1] + q[:, 1]) * dims[2] + q[:, 2]
+
+
+def _voxel_count(xyz: np.ndarray, voxel_size: float) -> int:
+    """How many voxels of edge ``voxel_size`` the points occupy (what :func:`_voxel_keys` would
+    keep, without the stable argsort and the representatives)."""
+    if len(xyz) == 0:
+        return 0
+    key = _voxel_key(xyz, voxel_size)
     key.sort()
     return 1 + int(np.count_nonzero(key[1:] != key[:-1]))
 
 
 def _voxel_keys(xyz: np.ndarray, voxel_size: float, inverse: bool):
     """(kept (m,) int64 sorted, voxel_of (n,) int64 or None) — see :func:`voxel_downsample`."""
-    q = np.floor((xyz - xyz.min(axis=0)) / voxel_size).astype(np.int64)
-    dims = q.max(axis=0) + 1
-    key = (q[:, 0] * dims[1] + q[:, 1]) * dims[2] + q[:, 2]
+    key = _voxel_key(xyz, voxel_size)
     order = np.argsort(key, kind="stable")  # stable: the first point of a voxel comes first
     ks = key[order]
     first = np.ones(len(ks), bool)
