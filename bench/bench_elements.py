@@ -6,7 +6,10 @@ and duplex of :mod:`engine.synthetic.ifcscene` when that module imports and the 
 quick): reconstruct, then :func:`engine.evaluation.evaluate_elements` — doors and windows
 (true / found / matched, P, R, F1, width errors), exterior-boundary coverage by external and
 by any walls, floor and ceiling slabs per storey, rooms, walls vs true wall runs, the door
-graph — and the reconstruction time. The bench only reports what the model holds.
+graph — and the reconstruction time. The bench only reports what the model holds. Rooms,
+exterior walls and slabs are scored over the true spaces the scan reaches
+(:func:`engine.evaluation.rooms.scanned_spaces`: an IFC roof level no scanner enters is left
+out).
 
 A row "truth" per scene scores the truth against itself (what the truth allows: an IFC
 truth can lack a slab or have outline stretches with no wall).
@@ -56,6 +59,7 @@ def one(name: str, noise: str, seed: int, points: int, truths: dict = None) -> d
     row = {"scene": name, "noise": noise, "seed": int(seed)}
     try:
         from engine.evaluation import evaluate_elements
+        from engine.evaluation.rooms import scanned_spaces
         from engine.reconstruct import reconstruct
 
         t0 = time.perf_counter()
@@ -69,7 +73,7 @@ def one(name: str, noise: str, seed: int, points: int, truths: dict = None) -> d
         row["reconstruct_s"] = round(time.perf_counter() - t0, 2)
         row["method"] = model.provenance.method
         t0 = time.perf_counter()
-        row["elements"] = evaluate_elements(model, sc.truth)
+        row["elements"] = evaluate_elements(model, sc.truth, seen=scanned_spaces(sc.truth, sc.cloud.xyz))
         row["evaluate_s"] = round(time.perf_counter() - t0, 3)
         row["elements"].pop("params", None)
     except Exception as e:  # one broken scene must not hide the others' rows

@@ -14,7 +14,8 @@ figures:
   ``kind`` is "window". Widths come from ``attributes["width"]`` or, lacking it, the longer
   horizontal side of the opening's box.
 * ``exterior`` — per truth storey, the length of the exterior boundary (the outer outline of
-  the union of the true rooms' footprints, wall gaps closed) and the share of it lying within
+  the union of the true rooms' and interior walls' footprints, wall gaps closed) and the
+  share of it lying within
   ``coverage_distance`` + half the thickness of a parallel model wall (flat-capped band
   around the wall's centre line): external walls only (``external`` True) and any wall.
 * ``slabs`` — per truth storey with rooms, whether floor slabs (reaching within
@@ -33,6 +34,9 @@ figures:
 * ``connectivity`` — the room pairs joined by a door (the exterior is one node per storey) in
   the model and the truth, model rooms named after the true room they match (greedy by
   footprint IoU); equal, missing and extra edges.
+
+With ``seen`` (the true spaces a scan reaches), storeys without a seen space are not scored
+for exterior walls and slabs, and unseen spaces are not counted as rooms.
 
 Models lacking attributes fall back to geometry: wall axis and thickness from the footprint's
 minimum-area box; ``external`` from ``exterior``, the wall's ``sides`` or adjacency
@@ -291,14 +295,34 @@ def _opening_scores(model: BuildingModel, truth: BuildingModel, window: bool,
 
 # ----------------------------------------------------------------------------- outlines, coverage
 def exterior_outline(truth: BuildingModel, storey: int, closing: float = 0.3):
-    """The storey's footprint: the union of the true rooms' footprints with the wall gaps
-    between them closed (radius ``closing``, metres), holes dropped. Empty when the storey
-    has no rooms."""
-    rooms = [s for s in truth.spaces if _truth_storey(s, truth) == storey]
-    u = unary_union([_plan(s, truth) for s in rooms]) if rooms else Polygon()
+    """The storey's footprint: the union of the true rooms' footprints and the interior
+    walls' (not ``external``: a party wall or a shaft thicker than ``2 * closing`` lies
+    inside the building, not on its boundary), the remaining gaps closed (radius
+    ``closing``, metres), parts narrower than ``closing`` dropped, holes dropped. A space of another storey that reaches through
+    this one's mid-height (a stairwell spanning two storeys) is part of its footprint: the
+    void over a stair is inside the building. Empty when the storey has no rooms."""
+    st = truth.storeys[storey]
+    mid = (st.floor_z + st.ceiling_z) / 2
+
+    def here(s):
+        if _truth_storey(s, truth) == storey:
+            return True
+        z0, z1 = _zrange(s)
+        return z0 < mid < z1
+
+    if not any(_truth_storey(s, truth) == storey for s in truth.spaces):
+        return Polygon()
+    rooms = [s for s in truth.spaces if here(s)]
+    adjacent = _exterior_adjacent(truth)
+    inner = [_plan(w, truth) for w in truth.walls
+             if _truth_storey(w, truth) == storey and not _is_external(w, truth, adjacent)]
+    u = unary_union([_plan(s, truth) for s in rooms] + inner)
     if u.is_empty:
         return Polygon()
     u = u.buffer(closing, **_MITRE).buffer(-closing, **_MITRE)
+    # an opening drops the ends of interior walls that run on through an exterior wall's
+    # junction (narrower than ``closing``): they are no part of the inside
+    u = u.buffer(-closing / 2, **_MITRE).buffer(closing / 2, **_MITRE)
     return unary_union([Polygon(p.exterior) for p in _polygons(u)])
 
 
@@ -498,7 +522,8 @@ def true_wall_runs(model: BuildingModel,
 
 # ----------------------------------------------------------------------------- entry point
 def evaluate_elements(model: BuildingModel, truth: BuildingModel,
-                      params: ElementMatchParams = ElementMatchParams()) -> dict:
+                      params: ElementMatchParams = ElementMatchParams(), *,
+                      seen: Optional[set] = None) -> dict:
     """Score a model's building elements against the truth (see the module doc).
 
     Parameters
@@ -509,6 +534,11 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     truth : BuildingModel
         The true model (e.g. ``engine.synthetic.preset(...).truth``).
     params : ElementMatchParams
+    seen : set, optional
+        Ids of the true spaces the scan reaches (:func:`engine.evaluation.rooms.scanned_spaces`).
+        A storey none of whose spaces was seen (an IFC roof level no ray enters) has no
+        exterior boundary or slabs to score, and unseen spaces do not count as rooms to find.
+        None: every space counts.
 
     Returns
     -------
@@ -524,13 +554,17 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     if not isinstance(model, BuildingModel) or not isinstance(truth, BuildingModel):
         raise InputError("evaluate_elements needs two BuildingModel objects (model, truth)")
     model = _in_truth_frame(model, truth)
-    outlines = [exterior_outline(truth, k, params.outline_closing) for k in range(len(truth.storeys))]
+    rooms = [s for s in truth.spaces if seen is None or s.id in seen]
+    scored = {_truth_storey(s, truth) for s in rooms}
+    outlines = [exterior_outline(truth, k, params.outline_closing) if k in scored else Polygon()
+                for k in range(len(truth.storeys))]
     m2t, ious = _match_rooms(model, truth, params)
     truth_edges = _door_edges(truth, truth, lambda sid: sid)
     model_edges = _door_edges(model, truth, lambda sid: m2t.get(sid, f"model:{sid}"))
     truth_runs = true_wall_runs(truth, params)
     model_runs = true_wall_runs(model, params)
-    n_true_rooms = len(truth.spaces)
+    n_true_rooms = len(rooms)
+    ious = {t: v for t, v in ious.items() if seen is None or t in seen}
     return {
         "doors": _opening_scores(model, truth, False, params),
         "windows": _opening_scores(model, truth, True, params),

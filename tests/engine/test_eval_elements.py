@@ -15,7 +15,8 @@ from engine.errors import InputError
 from engine.evaluation import (ElementMatchParams, evaluate, evaluate_elements, exterior_outline,
                                true_wall_runs, write_evaluation_outputs)
 from engine.geometry.transforms import apply_transform
-from engine.model import BuildingModel, Polyhedron, Relation, Shape, ShapeType
+from engine.geometry.polygon import polygon_parts
+from engine.model import BuildingModel, Polyhedron, Relation, Shape, ShapeType, Storey
 from engine.synthetic import build_truth, preset_plans
 
 OFFICE_PERIMETER = 2 * (17.85 + 12.35)
@@ -314,3 +315,69 @@ def test_bad_input():
         ElementMatchParams(centre_tolerance=-1)
     with pytest.raises(InputError):
         evaluate_elements("model.json", BuildingModel())
+
+
+def _duplex_like():
+    """Two flats side by side (x 0 … 4 and 4.7 … 8.7, y 0 … 6) behind a 0.7 m party wall,
+    0.3 m outer walls; on storey 0 a stair hall (x 0 … 1, y 0 … 2, in flat A) rising
+    through storey 1, whose room of flat A leaves it out (an L); storey 2 an attic room
+    without walls.
+    Returns (truth, id of the attic room)."""
+    st = (Storey(0, 0.0, 2.6, "Level 1"), Storey(1, 3.0, 5.6, "Level 2"), Storey(2, 6.0, 8.0, "Roof"))
+    shapes, n = [], iter(range(100))
+
+    def room(x0, y0, x1, y1, k, z1=None, name="room"):
+        s = st[k]
+        shapes.append(Shape(f"r{next(n)}", ShapeType.INTERIOR,
+                            Polyhedron.box((x0, y0, s.floor_z), (x1, y1, s.ceiling_z if z1 is None else z1)),
+                            storey=k, name=name, terminal=True))
+        return shapes[-1].id
+
+    def wall(x0, y0, x1, y1, k, external):
+        s = st[k]
+        shapes.append(Shape(f"w{next(n)}", ShapeType.WALL, Polyhedron.box((x0, y0, s.floor_z), (x1, y1, s.ceiling_z)),
+                            storey=k, terminal=True, attributes={"external": external}))
+
+    for k in (0, 1):
+        if k == 0:
+            room(1, 0, 4, 6, 0, name="A")
+            room(0, 0, 1, 2, 0, z1=5.6, name="stair")  # spans both storeys
+            room(0, 2, 1, 6, 0, name="A hall")
+        else:
+            shapes.append(Shape(f"r{next(n)}", ShapeType.INTERIOR,
+                                Polyhedron.prism([(1, 0), (4, 0), (4, 6), (0, 6), (0, 2), (1, 2)], 3.0, 5.6),
+                                storey=1, name="A upstairs", terminal=True))
+        room(4.7, 0, 8.7, 6, k, name="B")
+        wall(4, 0, 4.7, 6, k, False)  # the party wall
+        wall(-0.3, -0.3, 9.0, 0, k, True)
+        wall(-0.3, 6, 9.0, 6.3, k, True)
+        wall(-0.3, 0, 0, 6, k, True)
+        wall(8.7, 0, 9.0, 6, k, True)
+    attic = room(0, 0, 8.7, 6, 2, name="attic")
+    return BuildingModel(shapes=tuple(shapes), storeys=st), attic
+
+
+def test_outline_spans_party_walls_and_stair_voids_and_skips_unseen_storeys():
+    truth, attic = _duplex_like()
+    rect = 2 * (8.7 + 6.0)
+    # the 0.7 m party wall is inside the building: one outline, not two flats' outlines
+    for k in (0, 1):
+        o = exterior_outline(truth, k)
+        assert len(polygon_parts(o)) == 1
+        assert o.length == pytest.approx(rect, abs=1e-6), k
+        assert o.area == pytest.approx(8.7 * 6.0, abs=1e-6), k
+    # storey 1: the stair hall from storey 0 fills the L's notch (a void, not the outside)
+    r = evaluate_elements(truth, truth)
+    assert [p["boundary_m"] for p in r["exterior"]["per_storey"]] == pytest.approx([rect, rect, rect])
+    assert [p["external_share"] for p in r["exterior"]["per_storey"]] == pytest.approx([1.0, 1.0, 0.0])
+    # the attic, never scanned (``seen`` leaves it out), has no boundary, slabs or room to find
+    seen = {s.id for s in truth.spaces if s.id != attic}
+    r = evaluate_elements(truth, truth, seen=seen)
+    assert [p["boundary_m"] for p in r["exterior"]["per_storey"]] == pytest.approx([rect, rect, 0.0])
+    assert r["exterior"]["external_share"] == pytest.approx(1.0, abs=1e-9)
+    assert r["slabs"]["storeys"] == 0 or [p["floor"] for p in r["slabs"]["per_storey"]][2] is None
+    assert r["spaces"]["truth"] == len(truth.spaces) - 1 == r["spaces"]["matched"]
+    # a model without the party wall still covers the whole outline: it is no exterior boundary
+    party = [w.id for w in truth.walls if not w.attributes["external"]]
+    r = evaluate_elements(truth.replace_shapes(remove=set(party)), truth, seen=seen)
+    assert r["exterior"]["any_share"] == pytest.approx(1.0, abs=1e-9)
