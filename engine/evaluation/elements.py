@@ -36,7 +36,7 @@ figures:
   footprint IoU); equal, missing and extra edges.
 
 With ``seen`` (the true spaces a scan reaches), storeys without a seen space are not scored
-for exterior walls and slabs, and unseen spaces are not counted as rooms.
+for exterior walls, slabs, doors and windows, and unseen spaces are not counted as rooms.
 
 Models lacking attributes fall back to geometry: wall axis and thickness from the footprint's
 minimum-area box; ``external`` from ``exterior``, the wall's ``sides`` or adjacency
@@ -275,8 +275,11 @@ def _match_centres(a: np.ndarray, b: np.ndarray, tol: float) -> list[tuple[int, 
 
 
 def _opening_scores(model: BuildingModel, truth: BuildingModel, window: bool,
-                    params: ElementMatchParams) -> dict:
+                    params: ElementMatchParams, storeys: Optional[set] = None) -> dict:
+    """``storeys``: the truth storeys scored (None: all); true openings of others are left out."""
     found, true = _openings(model, window), _openings(truth, window)
+    if storeys is not None:
+        true = [s for s in true if _storey_of(s, truth) in storeys]
     cf = np.array([s.scope.center for s in found]).reshape(-1, 3)
     ct = np.array([s.scope.center for s in true]).reshape(-1, 3)
     pairs = _match_centres(cf, ct, params.centre_tolerance)
@@ -298,9 +301,10 @@ def exterior_outline(truth: BuildingModel, storey: int, closing: float = 0.3):
     """The storey's footprint: the union of the true rooms' footprints and the interior
     walls' (not ``external``: a party wall or a shaft thicker than ``2 * closing`` lies
     inside the building, not on its boundary), the remaining gaps closed (radius
-    ``closing``, metres), parts narrower than ``closing`` dropped, holes dropped. A space of another storey that reaches through
-    this one's mid-height (a stairwell spanning two storeys) is part of its footprint: the
-    void over a stair is inside the building. Empty when the storey has no rooms."""
+    ``closing``, metres), parts narrower than ``closing`` dropped, holes dropped. A space of
+    another storey that reaches through this one's mid-height (a stairwell spanning two
+    storeys) is part of its footprint: the void over a stair is inside the building. Empty
+    when the storey has no rooms."""
     st = truth.storeys[storey]
     mid = (st.floor_z + st.ceiling_z) / 2
 
@@ -537,7 +541,8 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     seen : set, optional
         Ids of the true spaces the scan reaches (:func:`engine.evaluation.rooms.scanned_spaces`).
         A storey none of whose spaces was seen (an IFC roof level no ray enters) has no
-        exterior boundary or slabs to score, and unseen spaces do not count as rooms to find.
+        exterior boundary, slabs, doors or windows (a roof light) to score, and unseen
+        spaces do not count as rooms to find.
         None: every space counts.
 
     Returns
@@ -566,8 +571,8 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     n_true_rooms = len(rooms)
     ious = {t: v for t, v in ious.items() if seen is None or t in seen}
     return {
-        "doors": _opening_scores(model, truth, False, params),
-        "windows": _opening_scores(model, truth, True, params),
+        "doors": _opening_scores(model, truth, False, params, None if seen is None else scored),
+        "windows": _opening_scores(model, truth, True, params, None if seen is None else scored),
         "exterior": _exterior_scores(model, truth, outlines, params),
         "slabs": _slab_scores(model, truth, outlines, params),
         "spaces": {"model": len(model.spaces), "truth": n_true_rooms,

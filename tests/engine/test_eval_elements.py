@@ -321,7 +321,7 @@ def _duplex_like():
     """Two flats side by side (x 0 … 4 and 4.7 … 8.7, y 0 … 6) behind a 0.7 m party wall,
     0.3 m outer walls; on storey 0 a stair hall (x 0 … 1, y 0 … 2, in flat A) rising
     through storey 1, whose room of flat A leaves it out (an L); storey 2 an attic room
-    without walls.
+    without walls under a roof light; one window in storey 0.
     Returns (truth, id of the attic room)."""
     st = (Storey(0, 0.0, 2.6, "Level 1"), Storey(1, 3.0, 5.6, "Level 2"), Storey(2, 6.0, 8.0, "Roof"))
     shapes, n = [], iter(range(100))
@@ -335,8 +335,9 @@ def _duplex_like():
 
     def wall(x0, y0, x1, y1, k, external):
         s = st[k]
-        shapes.append(Shape(f"w{next(n)}", ShapeType.WALL, Polyhedron.box((x0, y0, s.floor_z), (x1, y1, s.ceiling_z)),
-                            storey=k, terminal=True, attributes={"external": external}))
+        box = Polyhedron.box((x0, y0, s.floor_z), (x1, y1, s.ceiling_z))
+        shapes.append(Shape(f"w{next(n)}", ShapeType.WALL, box, storey=k, terminal=True,
+                            attributes={"external": external}))
 
     for k in (0, 1):
         if k == 0:
@@ -354,6 +355,10 @@ def _duplex_like():
         wall(-0.3, 0, 0, 6, k, True)
         wall(8.7, 0, 9.0, 6, k, True)
     attic = room(0, 0, 8.7, 6, 2, name="attic")
+    for wid, lo, hi, k in (("win_a", (2.0, -0.3, 1.0), (3.0, 0.0, 2.2), 0),
+                           ("roof_light", (3.0, 2.0, 7.5), (4.2, 3.2, 7.7), 2)):
+        shapes.append(Shape(wid, ShapeType.WINDOW, Polyhedron.box(lo, hi), storey=k, terminal=True,
+                            attributes={"kind": "window", "width": hi[0] - lo[0]}))
     return BuildingModel(shapes=tuple(shapes), storeys=st), attic
 
 
@@ -377,6 +382,10 @@ def test_outline_spans_party_walls_and_stair_voids_and_skips_unseen_storeys():
     assert r["exterior"]["external_share"] == pytest.approx(1.0, abs=1e-9)
     assert r["slabs"]["storeys"] == 0 or [p["floor"] for p in r["slabs"]["per_storey"]][2] is None
     assert r["spaces"]["truth"] == len(truth.spaces) - 1 == r["spaces"]["matched"]
+    # ... nor windows (a roof light in the attic's roof): a model without it loses nothing
+    assert evaluate_elements(truth, truth)["windows"]["true"] == 2
+    r = evaluate_elements(truth.replace_shapes(remove={"roof_light"}), truth, seen=seen)
+    assert r["windows"]["true"] == r["windows"]["matched"] == 1 and r["windows"]["f1"] == 1.0
     # a model without the party wall still covers the whole outline: it is no exterior boundary
     party = [w.id for w in truth.walls if not w.attributes["external"]]
     r = evaluate_elements(truth.replace_shapes(remove=set(party)), truth, seen=seen)
