@@ -186,7 +186,7 @@ class _Data:
     fu: np.ndarray             # u, z of the face and inside points, metres
     fz: np.ndarray
     fcls: np.ndarray           # 0 / 1: on the left / right face, 2: inside the thickness
-    fdev: np.ndarray           # distance from the face (face points), metres
+    fdev: np.ndarray           # depth behind the face (face points; < 0 in front), metres
     scans: list                # per side: face points per scanner
     rays: bool = False
 
@@ -210,6 +210,11 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, 
     if normals is not None:
         vertical = np.abs(normals[idx, :2] @ w.n) >= 0.5
     on = [(np.abs(v - vl) < t) & vertical & core & inz, (np.abs(v - vr) < t) & vertical & core & inz]
+    # the face whose edges measure a hole reaches further into the room: a door's casing
+    # stands proud of the plaster (the gaps are found on the plaster's plane alone)
+    tp = max(t, p.face_proud)
+    edge = [on[0] | ((v >= vl + t) & (v < vl + tp) & vertical & core & inz),
+            on[1] | ((v <= vr - t) & (v > vr - tp) & vertical & core & inz)]
     inside = (v < vl - t) & (v > vr + t)
     front = [(v > vl + t) & (v <= vl + p.reach), (v < vr - t) & (v >= vr - p.reach)]
     low = np.abs(z - w.floor_z) < p.edge_band
@@ -229,7 +234,7 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, 
             scans.append(np.bincount(k, minlength=n_scans))
         else:
             scans.append(np.zeros(0, np.int64))
-    either = on[0] | on[1] | (inside & core & inz)
+    either = edge[0] | edge[1] | (inside & core & inz)
     return _Data(face=np.stack([raster(on[0]), raster(on[1])]),
                  inside=raster(inside & core & inz),
                  floor=np.bincount(iu[inside & low], minlength=nu).astype(np.float64),
@@ -242,8 +247,8 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, 
                  leaf=np.stack([raster(leaf[0] & core & inz), raster(leaf[1] & core & inz)]),
                  through=np.zeros((2, nu, nz)), shadow=np.zeros((2, nu, nz)),
                  fu=u[either], fz=z[either], scans=scans,
-                 fcls=np.where(on[0], 0, np.where(on[1], 1, 2))[either].astype(np.int8),
-                 fdev=np.where(on[0], np.abs(v - vl), np.where(on[1], np.abs(v - vr), 0.0))[either])
+                 fcls=np.where(edge[0], 0, np.where(edge[1], 1, 2))[either].astype(np.int8),
+                 fdev=np.where(edge[0], vl - v, np.where(edge[1], v - vr, 0.0))[either])
 
 
 def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, tol: float,
@@ -352,7 +357,7 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     floor_reach, ceil_reach = zb - z0 <= p.floor_tolerance, z1 - zt <= p.ceiling_tolerance
     cls = dd.fcls
     keep = (cls == side) if side is not None else (cls == 2) | np.isin(cls, _inner_faces(obs, c0, c1, outer))
-    keep &= dd.fdev < tol / 2  # the face's core: few strays from a leaf or jamb behind it
+    keep &= dd.fdev < tol / 2  # the face's core and casings: few strays from a leaf or jamb behind it
     if leafy:
         keep &= cls != 2
     fu, fz, fin = dd.fu[keep], dd.fz[keep], cls[keep] == 2

@@ -26,6 +26,11 @@ class OpeningParams:
     """Face tolerance in units of the measured range noise σ."""
     face_tolerance: tuple = (0.015, 0.06)
     """Lower and upper bound of the face tolerance, metres."""
+    face_proud: Metres = 0.04
+    """Where a hole's edges are measured, points up to this in front of a face (room side)
+    are the face too: a door's casing stands 1-3 cm proud of the plaster, and a casing left
+    out of the face widens the door by its width on each side (gaps are still found on the
+    plaster's plane), metres."""
     edge_band: Metres = 0.08
     """Rows this close to the floor or ceiling are left out of the face rasters, metres."""
     kernel_points: Factor = 6.0

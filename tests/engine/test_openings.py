@@ -354,6 +354,30 @@ def test_a_jamb_just_outside_the_search_window_is_still_the_edge(seed):
         assert hole_edge(c2, o2, i2, 1.70, 2.10, 0.2, 2.1, False, 0.0537) == plain  # the same edge
 
 
+@pytest.mark.parametrize("rays", [True, False])
+@pytest.mark.parametrize("scanners, step", [([(2.45, 3.8, 1.5), (2.45, -3.8, 1.5)], 1.0),
+                                            ([(0.5, 3.8, 1.5), (4.5, -3.8, 1.5)], 2.0)])
+def test_a_door_casing_proud_of_the_face_is_the_face_not_the_hole(rays, scanners, step):
+    """8 cm casings standing 2.5 cm proud of both faces around the door (the IFC doors of
+    real plans have them), scanned precisely (3 mm) from 3.8 m, head-on or at a slant, so
+    that few points land on the jambs: the hole must still be the door's 0.9 m, not the
+    1.04-1.18 m from casing edge to casing edge that a face without its casings gives."""
+    u0, u1, _, z1 = DOOR
+    f, c, w = T_INT / 2, 0.025, 0.08
+    casing = []
+    for v0, v1 in ((f, f + c), (-f - c, -f)):
+        casing += [((u0 - w, v0, 0.0), (u0, v1, z1 + w)), ((u1, v0, 0.0), (u1 + w, v1, z1 + w)),
+                   ((u0, v0, z1), (u1, v1, z1 + w))]
+    boxes, walls, _ = _two_rooms(_holed_wall(T_INT, DOOR) + casing)
+    xyz, idx, pos = _scan(boxes, scanners, sigma=0.003, step=math.radians(step))
+    ops = detect_openings(walls, [STOREY], xyz, scan_index=idx if rays else None,
+                          scanner_positions=pos if rays else None)
+    assert len(ops) == 1, [o.attributes for o in ops]
+    a = ops[0].attributes
+    assert a["kind"] == "door" and abs(a["width"] - 0.9) <= 0.04, a
+    assert abs(_centre_u(ops[0]) - 2.45) <= 0.03
+
+
 def test_a_closed_door_is_a_recessed_leaf_in_a_door_sized_gap():
     """A 4 cm leaf whose face is 3 cm behind room_a's wall face (8 cm behind room_b's)."""
     leaf = ((DOOR[0], T_INT / 2 - 0.07, 0.0), (DOOR[1], T_INT / 2 - 0.03, DOOR[3]))
