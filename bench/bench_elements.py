@@ -5,7 +5,8 @@ For each scene (presets office_mw, two_storey_office, syn_house; TLS and mobile;
 and duplex of :mod:`engine.synthetic.ifcscene` when that module imports and the run is not
 quick): reconstruct, then :func:`engine.evaluation.evaluate_elements` — doors and windows
 (true / found / matched, P, R, F1, width errors), exterior-boundary coverage by external and
-by any walls, floor and ceiling slabs per storey, rooms, walls vs true wall runs, the door
+by any walls, floor and ceiling slabs per storey, rooms (model spaces / true rooms, open
+plans merged / matched), walls vs true wall runs, the door
 graph — and the reconstruction time. The bench only reports what the model holds. Rooms,
 exterior walls and slabs are scored over the true spaces the scan reaches
 (:func:`engine.evaluation.rooms.scanned_spaces`: an IFC roof level no scanner enters is left
@@ -39,7 +40,7 @@ SEEDS = (0, 1, 2)
 POINTS, QUICK_POINTS = 300_000, 100_000
 
 COLUMNS = ("scene", "noise", "seed", "pts", "rec s", "doors T/F/M", "door P/R/F1", "dW cm mean/max",
-           "win T/F/M", "win F1", "ext cov ext/any", "slabs F/C", "rooms m/t", "walls m/runs",
+           "win T/F/M", "win F1", "ext cov ext/any", "slabs F/C", "rooms M/T/=", "walls m/runs",
            "graph =/−/+")
 
 
@@ -113,7 +114,7 @@ def table_row(r: dict) -> str:
         f"{w['true']}/{w['found']}/{w['matched']}", _f(w["f1"]),
         f"{_f(ex['external_share'])}/{_f(ex['any_share'])}",
         f"{sl['floor_found']}/{sl['ceiling_found']} of {sl['storeys']}",
-        f"{sp['model']}/{sp['truth']}",
+        f"{sp['model']}/{sp['truth']}/{sp['matched']}",
         f"{wa['model']}/{wa['truth_runs']}",
         f"{'yes' if c['equal'] else 'no'}/{len(c['missing'])}/{len(c['extra'])}",
     ]

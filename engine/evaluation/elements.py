@@ -26,7 +26,11 @@ figures:
   the storey footprint. Slabs count by their height whatever their ``kind`` (the kinds of
   the counted slabs are listed), so a model's ceiling slab under the storey above is that
   storey's floor too.
-* ``spaces`` — model room count vs truth room count, and rooms matched by footprint IoU.
+* ``spaces`` — model space count vs the true room count, rooms matched and their mean
+  IoU, as :func:`engine.evaluation.rooms.room_scores` counts them: true rooms joined without
+  a wall (an open plan, FZK-Haus's kitchen and living room) are one room, and model spaces
+  inside one open plan one space; ``truth_spaces`` / ``matched_spaces``: the true spaces one
+  by one and those a model space matches by footprint IoU (they name the graph's nodes).
 * ``walls`` — model wall count vs the *true wall runs*: the truth's wall pieces merged into
   straight runs (parallel within ``run_angle``, centre lines within ``run_offset``, thickness
   within ``run_thickness``, same storey, overlapping, touching within ``run_gap`` or joined
@@ -558,6 +562,9 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     """
     if not isinstance(model, BuildingModel) or not isinstance(truth, BuildingModel):
         raise InputError("evaluate_elements needs two BuildingModel objects (model, truth)")
+    from .rooms import room_scores  # rooms imports this module
+
+    plans = room_scores(model, truth, seen=seen)  # open plans merged (issue 19)
     model = _in_truth_frame(model, truth)
     rooms = [s for s in truth.spaces if seen is None or s.id in seen]
     scored = {_truth_storey(s, truth) for s in rooms}
@@ -575,9 +582,10 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
         "windows": _opening_scores(model, truth, True, params, None if seen is None else scored),
         "exterior": _exterior_scores(model, truth, outlines, params),
         "slabs": _slab_scores(model, truth, outlines, params),
-        "spaces": {"model": len(model.spaces), "truth": n_true_rooms,
-                   "ratio": _ratio(len(model.spaces), n_true_rooms), "matched": len(ious),
-                   "mean_iou": float(sum(ious.values()) / n_true_rooms) if n_true_rooms else None,
+        "spaces": {"model": len(model.spaces), "truth": plans["true"],
+                   "ratio": _ratio(len(model.spaces), plans["true"]), "matched": plans["matched"],
+                   "mean_iou": None if plans["matched"] == 0 else float(plans["mean_iou"]),
+                   "truth_spaces": n_true_rooms, "matched_spaces": len(ious),
                    "pairs": sorted([m, t] for m, t in m2t.items())},
         "walls": {"model": len(model.walls), "model_runs": len(model_runs), "truth_pieces": len(truth.walls),
                   "truth_runs": len(truth_runs), "ratio": _ratio(len(model.walls), len(truth_runs))},

@@ -381,7 +381,9 @@ def test_outline_spans_party_walls_and_stair_voids_and_skips_unseen_storeys():
     assert [p["boundary_m"] for p in r["exterior"]["per_storey"]] == pytest.approx([rect, rect, 0.0])
     assert r["exterior"]["external_share"] == pytest.approx(1.0, abs=1e-9)
     assert r["slabs"]["storeys"] == 0 or [p["floor"] for p in r["slabs"]["per_storey"]][2] is None
-    assert r["spaces"]["truth"] == len(truth.spaces) - 1 == r["spaces"]["matched"]
+    assert r["spaces"]["truth_spaces"] == len(truth.spaces) - 1 == r["spaces"]["matched_spaces"]
+    # flat A's storey-0 rooms meet without walls: one open plan, one room (4 rooms in all)
+    assert r["spaces"]["truth"] == r["spaces"]["matched"] == 4
     # ... nor windows (a roof light in the attic's roof): a model without it loses nothing
     assert evaluate_elements(truth, truth)["windows"]["true"] == 2
     r = evaluate_elements(truth.replace_shapes(remove={"roof_light"}), truth, seen=seen)
