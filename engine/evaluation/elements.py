@@ -40,7 +40,8 @@ figures:
   footprint IoU); equal, missing and extra edges.
 
 With ``seen`` (the true spaces a scan reaches), storeys without a seen space are not scored
-for exterior walls, slabs, doors and windows, and unseen spaces are not counted as rooms.
+for exterior walls, slabs, doors and windows, and unseen spaces are neither counted as rooms
+nor part of the outline.
 
 Models lacking attributes fall back to geometry: wall axis and thickness from the footprint's
 minimum-area box; ``external`` from ``exterior``, the wall's ``sides`` or adjacency
@@ -301,14 +302,16 @@ def _opening_scores(model: BuildingModel, truth: BuildingModel, window: bool,
 
 
 # ----------------------------------------------------------------------------- outlines, coverage
-def exterior_outline(truth: BuildingModel, storey: int, closing: float = 0.3):
+def exterior_outline(truth: BuildingModel, storey: int, closing: float = 0.3, seen: Optional[set] = None):
     """The storey's footprint: the union of the true rooms' footprints and the interior
     walls' (not ``external``: a party wall or a shaft thicker than ``2 * closing`` lies
     inside the building, not on its boundary), the remaining gaps closed (radius
     ``closing``, metres), parts narrower than ``closing`` dropped, holes dropped. A space of
     another storey that reaches through this one's mid-height (a stairwell spanning two
-    storeys) is part of its footprint: the void over a stair is inside the building. Empty
-    when the storey has no rooms."""
+    storeys) is part of its footprint: the void over a stair is inside the building.
+    ``seen``: the ids of the true spaces a scan reaches; the others are left out (a room
+    never scanned is no part of the scanned building's outline). Empty when the storey has no
+    (seen) rooms."""
     st = truth.storeys[storey]
     mid = (st.floor_z + st.ceiling_z) / 2
 
@@ -318,9 +321,10 @@ def exterior_outline(truth: BuildingModel, storey: int, closing: float = 0.3):
         z0, z1 = _zrange(s)
         return z0 < mid < z1
 
-    if not any(_truth_storey(s, truth) == storey for s in truth.spaces):
+    spaces = [s for s in truth.spaces if seen is None or s.id in seen]
+    if not any(_truth_storey(s, truth) == storey for s in spaces):
         return Polygon()
-    rooms = [s for s in truth.spaces if here(s)]
+    rooms = [s for s in spaces if here(s)]
     adjacent = _exterior_adjacent(truth)
     inner = [_plan(w, truth) for w in truth.walls
              if _truth_storey(w, truth) == storey and not _is_external(w, truth, adjacent)]
@@ -545,8 +549,8 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     seen : set, optional
         Ids of the true spaces the scan reaches (:func:`engine.evaluation.rooms.scanned_spaces`).
         A storey none of whose spaces was seen (an IFC roof level no ray enters) has no
-        exterior boundary, slabs, doors or windows (a roof light) to score, and unseen
-        spaces do not count as rooms to find.
+        exterior boundary, slabs, doors or windows (a roof light) to score; unseen spaces do
+        not count as rooms to find, nor are they part of a storey's outline.
         None: every space counts.
 
     Returns
@@ -568,8 +572,7 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     model = _in_truth_frame(model, truth)
     rooms = [s for s in truth.spaces if seen is None or s.id in seen]
     scored = {_truth_storey(s, truth) for s in rooms}
-    outlines = [exterior_outline(truth, k, params.outline_closing) if k in scored else Polygon()
-                for k in range(len(truth.storeys))]
+    outlines = [exterior_outline(truth, k, params.outline_closing, seen) for k in range(len(truth.storeys))]
     m2t, ious = _match_rooms(model, truth, params)
     truth_edges = _door_edges(truth, truth, lambda sid: sid)
     model_edges = _door_edges(model, truth, lambda sid: m2t.get(sid, f"model:{sid}"))

@@ -388,6 +388,12 @@ def test_outline_spans_party_walls_and_stair_voids_and_skips_unseen_storeys():
     assert evaluate_elements(truth, truth)["windows"]["true"] == 2
     r = evaluate_elements(truth.replace_shapes(remove={"roof_light"}), truth, seen=seen)
     assert r["windows"]["true"] == r["windows"]["matched"] == 1 and r["windows"]["f1"] == 1.0
+    # a room never scanned (flat B upstairs) is no part of the scanned building's outline:
+    # flat A and the party wall beside it remain
+    b_up = next(s.id for s in truth.spaces if s.name == "B" and s.storey == 1)
+    o = exterior_outline(truth, 1, seen=seen - {b_up})
+    assert o.area == pytest.approx(4.7 * 6.0, abs=1e-6)
+    assert o.length == pytest.approx(2 * (4.7 + 6.0), abs=1e-6)
     # a model without the party wall still covers the whole outline: it is no exterior boundary
     party = [w.id for w in truth.walls if not w.attributes["external"]]
     r = evaluate_elements(truth.replace_shapes(remove=set(party)), truth, seen=seen)
