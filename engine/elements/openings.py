@@ -450,6 +450,10 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
                               for st in strips]))
     f_leaf = max([float(near_points(dd.leaf[s][cells]).mean()) for s in leaf_sides], default=0.0)
     occluded = f_occ >= p.max_occluded if dd.rays else f_front >= p.max_front_cover
+    # a half-shadowed door or window is no occlusion when rays pass through it and its jambs
+    # and head stand inside the thickness: a shadow has neither (the shadowed share still
+    # lowers the confidence); a wide "opening" may be a door joined to the shadow beside it
+    occluded &= not (kind != "opening" and f_through >= p.min_seen_through and f_reveal >= p.reveal_share)
     closed = kind == "door" and f_leaf >= p.leaf_share and f_through < p.min_seen_through
     if side is not None and not closed:
         return None

@@ -153,6 +153,33 @@ def test_a_shelf_shadow_in_front_of_a_wall_is_no_door(rays, exterior):
     assert ops == [], [o.attributes for o in ops]
 
 
+def _exterior_door_behind(obstacle, scanner):
+    """Openings found in a 0.3 m exterior wall with DOOR open onto the ground outside, an
+    ``obstacle`` box standing in the room, one ``scanner``."""
+    outside = [((-5.0, -6.2, 0.0), (L + 5.0, -6.0, 8.0)), ((-5.0, -6.0, -0.2), (L + 5.0, -T_EXT / 2, 0.0))]
+    boxes = _room(T_EXT / 2, 4.0) + _holed_wall(T_EXT, DOOR) + outside + [obstacle]
+    walls = [_wall("w_ext", 0.0, 0.0, L, T_EXT, ("room_a", None), True)]
+    xyz, idx, pos = _scan(boxes, [scanner])
+    return detect_openings(walls, [STOREY], xyz, scan_index=idx, scanner_positions=pos,
+                           exterior_ids={0: "out"})
+
+
+def test_a_door_half_shadowed_by_a_panel_is_still_a_door():
+    """A 0.5 m panel 0.4 m in front of an exterior door shadows 56 % of it from the one
+    scanner; rays pass through the rest (44 %) and the jamb and head stand inside the
+    thickness: a door (it was dropped as an occlusion). A cabinet beside the door whose
+    shadow joins the hole gives no opening off the door."""
+    ops = _exterior_door_behind(((2.4, 0.4, 0.0), (2.9, 0.45, 2.2)), (2.45, 3.0, 1.5))
+    assert len(ops) == 1, [o.attributes for o in ops]
+    a = ops[0].attributes
+    assert a["kind"] == "door" and abs(a["width"] - 0.9) <= 0.1, a
+    assert abs(_centre_u(ops[0]) - 2.45) <= 0.1
+    assert ops[0].support["occluded"] >= 0.4 and ops[0].support["seen_through"] >= 0.3
+    for scanner in ((2.45, 3.0, 1.5), (3.5, 2.0, 1.5)):
+        ops = _exterior_door_behind(((2.0, 0.6, 0.0), (2.5, 1.0, 2.0)), scanner)
+        assert all(abs(_centre_u(o) - 2.45) <= 0.3 for o in ops), [o.attributes for o in ops]
+
+
 def _glazed_exterior_hole(hole, rays: bool):
     """Openings found in a 0.3 m exterior wall with a ``hole`` (u0, u1, z0, z1) glazed in the
     middle of the thickness (5 % of the rays return), a facade and the ground outside."""
