@@ -93,15 +93,16 @@ def test_fzk_haus_has_no_false_door_and_its_walls(results, noise):
 @pytest.mark.slow
 @pytest.mark.parametrize("noise", ["tls", "mobile"])
 def test_duplex_party_wall_is_one_wall_without_openings(results, noise):
-    """Measured on seed 3: doors P 0.93 / R 1.00 (TLS), 0.92 / 0.86 (mobile); before the thick
-    walls 0.43 / 0.71 and 0.69 / 0.79, with 4-5 m 'openings' along the party wall into the
-    other flat; before the egress rule (level 2's 750 x 2200 mm windows were doors) 0.76 /
-    0.93 (TLS). The party wall between the flats is an interior wall (both sides rooms) and
-    holds no opening."""
+    """Measured on seed 3: doors P 1.00 / R 1.00 (TLS), 1.00 / 0.93 (mobile: 0.86 while the
+    front door, half shadowed by a partition but seen through and with its jamb and head,
+    was taken for an occlusion); before the thick walls 0.43 / 0.71 and 0.69 / 0.79, with
+    4-5 m 'openings' along the party wall into the other flat; before the egress rule (level
+    2's 750 x 2200 mm windows were doors) 0.76 / 0.93 (TLS). Margin: one door of 14. The party
+    wall between the flats is an interior wall (both sides rooms) and holds no opening."""
     sc, m, r = _run(results, "duplex", noise, 3)
-    assert r["doors"]["precision"] >= 0.8 and r["doors"]["recall"] >= 0.78, r["doors"]
+    assert r["doors"]["precision"] >= 13 / 14 - 1e-9 and r["doors"]["recall"] >= 12 / 14 - 1e-9, r["doors"]
     if noise == "tls":
-        # windows, seed 3: 21 of 24 found, none false (0.875 / 1.00); 15 of 24 before the
+        # windows, seed 3: 22 of 24 found, none false (0.92 / 1.00); 15 of 24 before the
         # stacked panes were kept apart (their transoms measured by both), low panes (sill
         # 8 cm, sill seen in a few columns) taken for windows and exterior sides known by
         # name. Two roof windows above the unscanned roof storey cannot be seen. Margin: two
