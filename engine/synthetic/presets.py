@@ -10,6 +10,8 @@ for some, model variants:
   door at the ground-floor corridor's west end;
 * ``house_multi_height`` — four rooms with different ceiling heights; 8 windows and an
   entrance door;
+* ``three_storey_house`` — three storeys (2.7, 2.6 and 2.4 m high, 0.3 m slabs) of different
+  layouts over one footprint: 10 rooms, 9 doors (one to the outside), 11 windows;
 * ``unscanned_room`` — a corridor with four rooms, one never scanned (its door closed);
 * ``syn_house`` — non-Manhattan: a common room, three private rooms and an open space;
   9 windows (one in the slanted outer wall) and an entrance door;
@@ -178,6 +180,36 @@ def _two_storey_office():
     doors.append(_entrance(rooms, "Corridor 0", _W, 0.5, width=1.2))
     storeys = (PlanStorey(0.0, 2.8, "Ground floor"), PlanStorey(3.1, 2.8, "First floor"))
     return FloorPlan("two_storey_office", storeys, tuple(rooms), tuple(doors), interior_thickness=t,
+                     exterior_thickness=0.3, slab_thickness=0.3, windows=tuple(_windows(rooms, specs)))
+
+
+def _three_storey_house():
+    """A house of three storeys of different heights and layouts over one 10 m x 8 m
+    footprint: a hall, a living room and a kitchen; a landing, two bedrooms and a bathroom;
+    a landing, a study and a room under the roof."""
+    t = 0.15
+    layout = {0: [("Hall", _rect(0, 0, 3, 8), {"furnished": False}), ("Living", _rect(3, 0, 10, 5)),
+                  ("Kitchen", _rect(3, 5, 10, 8))],
+              1: [("Landing 1", _rect(0, 0, 3, 8), {"furnished": False}), ("Bedroom 1", _rect(3, 0, 10, 4)),
+                  ("Bedroom 2", _rect(3, 4, 7, 8)), ("Bath", _rect(7, 4, 10, 8))],
+              2: [("Landing 2", _rect(0, 0, 3, 4), {"furnished": False}), ("Study", _rect(0, 4, 3, 8)),
+                  ("Top room", _rect(3, 0, 10, 8))]}
+    rooms, doors = [], []
+    for s, cells in layout.items():
+        rooms += rooms_from_partition([(n, poly, {**(kw[0] if kw else {}), "storey": s}) for n, poly, *kw in cells], t)
+    doors += [Door(("Living", "Hall"), 0.5), Door(("Kitchen", "Hall"), 0.5), Door(("Living", "Kitchen"), 0.3),
+              Door(("Bedroom 1", "Landing 1"), 0.5), Door(("Bedroom 2", "Landing 1"), 0.5),
+              Door(("Bath", "Bedroom 2"), 0.5), Door(("Study", "Landing 2"), 0.5),
+              Door(("Top room", "Landing 2"), 0.5)]
+    doors.append(_entrance(rooms, "Hall", _W, 0.5, width=1.0))
+    specs = [("Living", _S, 0.5, 2.0, 1.4, 0.8), ("Living", _E, 0.5, 1.5, 1.4, 0.8), ("Kitchen", _N, 0.6, 1.2, 1.1, 1.1),
+             ("Hall", _N, 0.5, 0.8, 1.0, 1.2), ("Bedroom 1", _S, 0.5, 1.5, 1.3, 0.9),
+             ("Bedroom 1", _E, 0.5, 1.2, 1.3, 0.9), ("Bedroom 2", _N, 0.5, 1.2, 1.3, 0.9),
+             ("Bath", _E, 0.5, 0.6, 0.8, 1.5), ("Study", _W, 0.5, 1.0, 1.2, 0.9),
+             ("Top room", _S, 0.3, 1.2, 1.0, 0.9), ("Top room", _E, 0.5, 1.2, 1.0, 0.9)]
+    storeys = (PlanStorey(0.0, 2.7, "Ground floor"), PlanStorey(3.0, 2.6, "First floor"),
+               PlanStorey(5.9, 2.4, "Second floor"))
+    return FloorPlan("three_storey_house", storeys, tuple(rooms), tuple(doors), interior_thickness=t,
                      exterior_thickness=0.3, slab_thickness=0.3, windows=tuple(_windows(rooms, specs)))
 
 
@@ -384,6 +416,7 @@ _PLANS: dict[str, Callable[[], FloorPlan]] = {
     "office_mw": _office_mw,
     "two_storey_office": _two_storey_office,
     "house_multi_height": _house_multi_height,
+    "three_storey_house": _three_storey_house,
     "unscanned_room": _unscanned_room,
     "syn_house": _syn_house,
     "hexagon_hall": _hexagon_hall,

@@ -13,7 +13,7 @@ from engine.reconstruct import reconstruct
 from engine.synthetic import preset
 
 CASES = [("office_mw", "tls", 3), ("two_storey_office", "tls", 4), ("syn_house", "tls", 3),
-         ("house_multi_height", "mobile", 4), ("syn_house", "mobile", 3)]
+         ("house_multi_height", "mobile", 4), ("syn_house", "mobile", 3), ("three_storey_house", "tls", 3)]
 
 
 @pytest.fixture(scope="module")
@@ -131,3 +131,24 @@ def test_duplex_party_wall_is_one_wall_without_openings(results, noise):
     # it; 1.00 mobile, where a 0.9 m exterior stub at the stair core overlaps it: 0.05)
     assert share([w for w in on if not w.attributes["external"]]) >= 0.8
     assert share([w for w in on if w.attributes["external"]]) <= 0.15
+
+
+@pytest.mark.slow
+def test_three_storeys_in_one_scan_are_three_storeys(results):
+    """three_storey_house (storeys 2.7, 2.6 and 2.4 m high over 0.3 m slabs, a different layout
+    on each), seed 3: three storeys at the true floor heights (within 5 cm; measured within
+    1 cm), every room on its storey, a floor and a ceiling slab per storey (the targets
+    above check the counts)."""
+    sc, m, r = _run(results, "three_storey_house", "tls", 3)
+    from engine.evaluation.elements import _in_truth_frame, _storey_of, _truth_storey
+
+    mt = _in_truth_frame(m, sc.truth)
+    assert [round(s.floor_z, 1) for s in sc.truth.storeys] == [0.0, 3.0, 5.9]
+    assert len(mt.storeys) == 3
+    for s, t in zip(mt.storeys, sc.truth.storeys):
+        assert abs(s.floor_z - t.floor_z) <= 0.05 and abs(s.ceiling_z - t.ceiling_z) <= 0.05, (s, t)
+    rooms = {m_id: t_id for m_id, t_id in r["spaces"]["pairs"]}
+    assert len(rooms) == len(sc.truth.spaces) == 10
+    for m_id, t_id in rooms.items():
+        assert _storey_of(mt[m_id], sc.truth) == _truth_storey(sc.truth[t_id], sc.truth)
+    assert [p["floor"] and p["ceiling"] for p in r["slabs"]["per_storey"]] == [True] * 3
