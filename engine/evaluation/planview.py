@@ -27,7 +27,7 @@ from ..geometry.polygon import polygon_parts
 from ..geometry.transforms import apply_transform, frame_transform
 from ..model import BuildingModel, ShapeType, Storey
 from ..pointcloud import PointCloud
-from .elements import _in_truth_frame, _plan, _storey_of, _truth_storey, _zrange
+from .footprints import _in_truth_frame, _plan, _storey_of, _truth_storey, _zrange
 
 __all__ = ["plan_view", "plan_differences", "MAX_SLICE_POINTS", "SLICE_HALF_HEIGHT"]
 

@@ -24,7 +24,7 @@ from shapely.ops import unary_union
 
 from ..errors import InputError
 from ..model import BuildingModel
-from .elements import _in_truth_frame, _plan, _storey_of, _truth_storey, _zrange, exterior_outline
+from .footprints import _in_truth_frame, _plan, _storey_of, _truth_storey, _zrange, exterior_outline
 from .groups import DisjointSets
 
 __all__ = ["RoomScoreParams", "room_scores", "merge_open_plans", "scanned_spaces"]

@@ -196,13 +196,15 @@ def _three_storey_house():
                   ("Top room", _rect(3, 0, 10, 8))]}
     rooms, doors = [], []
     for s, cells in layout.items():
-        rooms += rooms_from_partition([(n, poly, {**(kw[0] if kw else {}), "storey": s}) for n, poly, *kw in cells], t)
+        rooms += rooms_from_partition([(n, poly, {**(kw[0] if kw else {}), "storey": s})
+                                       for n, poly, *kw in cells], t)
     doors += [Door(("Living", "Hall"), 0.5), Door(("Kitchen", "Hall"), 0.5), Door(("Living", "Kitchen"), 0.3),
               Door(("Bedroom 1", "Landing 1"), 0.5), Door(("Bedroom 2", "Landing 1"), 0.5),
               Door(("Bath", "Bedroom 2"), 0.5), Door(("Study", "Landing 2"), 0.5),
               Door(("Top room", "Landing 2"), 0.5)]
     doors.append(_entrance(rooms, "Hall", _W, 0.5, width=1.0))
-    specs = [("Living", _S, 0.5, 2.0, 1.4, 0.8), ("Living", _E, 0.5, 1.5, 1.4, 0.8), ("Kitchen", _N, 0.6, 1.2, 1.1, 1.1),
+    specs = [("Living", _S, 0.5, 2.0, 1.4, 0.8), ("Living", _E, 0.5, 1.5, 1.4, 0.8),
+             ("Kitchen", _N, 0.6, 1.2, 1.1, 1.1),
              ("Hall", _N, 0.5, 0.8, 1.0, 1.2), ("Bedroom 1", _S, 0.5, 1.5, 1.3, 0.9),
              ("Bedroom 1", _E, 0.5, 1.2, 1.3, 0.9), ("Bedroom 2", _N, 0.5, 1.2, 1.3, 0.9),
              ("Bath", _E, 0.5, 0.6, 0.8, 1.5), ("Study", _W, 0.5, 1.0, 1.2, 0.9),
