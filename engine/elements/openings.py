@@ -465,7 +465,11 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     conf += 0.15 * min(1.0, f_floor / p.cue_share) + 0.15 * min(1.0, f_reveal / p.reveal_share)
     conf += 0.2 * min(1.0, n_beyond / 20.0) * (not dd.rays) * w.external + 0.45 * closed
     conf = float(np.clip(conf - (f_occ if dd.rays else f_front), 0.0, 1.0))
-    if (occluded and not (f_through >= 2 * p.min_seen_through or closed)) or conf < p.min_confidence:
+    # a window framed by its reveals, unshadowed, with nothing inside its hole: the sky
+    framed = (kind == "window" and w.external and not occluded and f_reveal >= p.framed_share
+              and float((dd.inside[cells] > 0).mean()) < 0.5)
+    if (occluded and not (f_through >= 2 * p.min_seen_through or closed)) or (conf < p.min_confidence
+                                                                              and not framed):
         return None
     return {"u0": el, "u1": er, "width": er - el, "height": et - eb, "sill": eb - z0, "kind": kind,
             "open": not closed, "confidence": conf,

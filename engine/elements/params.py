@@ -91,6 +91,11 @@ class OpeningParams:
     """Share of a door's width with floor points inside the thickness for the full cue."""
     reveal_share: Ratio = 0.5
     """Share of a gap's edges (jambs, head, sill) with reveal points for the full cue."""
+    framed_share: Ratio = 0.75
+    """A window in an exterior wall with reveals at this share of its edges (sill, head,
+    jambs), not shadowed and with no back inside the thickness (a niche), is kept however
+    little is seen beyond it: an upper storey's window looks at the sky, which returns no
+    point."""
     min_confidence: Ratio = 0.3
     """Gaps with less confidence are dropped."""
     leaf_depth: tuple = (0.02, 0.10)

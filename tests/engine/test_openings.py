@@ -209,6 +209,25 @@ def test_a_window_hole_with_points_beyond_is_a_window(rays):
 
 
 @pytest.mark.parametrize("rays", [True, False])
+def test_a_window_to_the_sky_behind_a_pole_is_a_window(rays):
+    """An upper storey's window: nothing beyond it returns a point (no facade, no ground), a
+    15 cm pole in the room shadows 31 % of it, so the cues of a hole seen through or beyond
+    are missing and the shadow lowers the rest: its frame (sill, head and jambs inside the
+    thickness) keeps it (it was dropped)."""
+    hole = (1.5, 2.7, 0.9, 2.1)
+    pole = ((2.0, 0.8, 0.0), (2.15, 0.95, 1.8))
+    boxes = _room(T_EXT / 2, 4.0) + _holed_wall(T_EXT, hole) + [pole]
+    walls = [_wall("w_ext", 0.0, 0.0, L, T_EXT, ("room_a", None), True)]
+    xyz, idx, pos = _scan(boxes, [(1.0, 2.5, 1.5), (3.6, 1.8, 1.5)])
+    ops = detect_openings(walls, [STOREY], xyz, scan_index=idx if rays else None,
+                          scanner_positions=pos if rays else None, exterior_ids={0: "out"})
+    assert len(ops) == 1, [o.attributes for o in ops]
+    a = ops[0].attributes
+    assert a["kind"] == "window" and abs(a["width"] - 1.2) <= 0.05 and abs(a["sill"] - 0.9) <= 0.05, a
+    assert abs(_centre_u(ops[0]) - 2.1) <= 0.05 and ops[0].support["points_beyond"] == 0
+
+
+@pytest.mark.parametrize("rays", [True, False])
 @pytest.mark.parametrize("sill", [0.1, 0.15])
 def test_a_tall_window_with_a_low_sill_is_a_window_not_a_door(rays, sill):
     """A 0.8 m wide window from a low sill (closer to the floor than floor_tolerance) to
