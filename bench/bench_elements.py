@@ -1,13 +1,13 @@
 """Building elements of ``reconstruct(cloud, "auto")`` scored against the truth.
 
-For each scene (presets office_mw, two_storey_office, syn_house; TLS and mobile; seeds 0, 1,
-2; 300k points — quick: office_mw, TLS, seed 0, 100k points; plus the IFC scenes fzk_haus
-and duplex of :mod:`engine.synthetic.ifcscene` when that module imports and the run is not
-quick): reconstruct, then :func:`engine.evaluation.evaluate_elements` — doors and windows
-(true / found / matched, P, R, F1, width errors), exterior-boundary coverage by external and
-by any walls, floor and ceiling slabs per storey, rooms (model spaces / true rooms, open
-plans merged / matched), walls vs true wall runs, the door
-graph — and the reconstruction time. The bench only reports what the model holds. Rooms,
+For each scene (presets office_mw, two_storey_office, three_storey_house, syn_house; TLS and
+mobile; seeds 0, 1, 2; 300k points — quick: office_mw, TLS, seed 0, 100k points; plus the IFC
+scenes fzk_haus and duplex of :mod:`engine.synthetic.ifcscene` when that module imports and
+the run is not quick): reconstruct, then :func:`engine.evaluation.evaluate_elements` — doors
+and windows (true / found / matched, P, R, F1, width errors), exterior-boundary coverage by
+external and by any walls, floor and ceiling slabs per storey, rooms (model spaces / true
+rooms, open plans merged / matched), walls vs true wall runs, the door graph — and the
+reconstruction time. The bench only reports what the model holds. Rooms,
 exterior walls and slabs are scored over the true spaces the scan reaches
 (:func:`engine.evaluation.rooms.scanned_spaces`: an IFC roof level no scanner enters is left
 out).
@@ -33,7 +33,7 @@ from engine.fileutil import atomic_write_text
 
 log = logging.getLogger(__name__)
 
-SCENES = ("office_mw", "two_storey_office", "syn_house")
+SCENES = ("office_mw", "two_storey_office", "three_storey_house", "syn_house")
 IFC_SCENES = ("fzk_haus", "duplex")
 NOISES = ("tls", "mobile")
 SEEDS = (0, 1, 2)
