@@ -5,13 +5,17 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need_apt=()
-if ! ldconfig -p 2>/dev/null | grep -q 'libusb-1.0.so.0'; then need_apt+=(libusb-1.0-0); fi
+# the library cache read once: `ldconfig -p | grep -q` under pipefail fails at random (grep
+# quits at the first match, ldconfig gets SIGPIPE) and reinstalled present libraries
+libs=$(ldconfig -p 2>/dev/null || true)
+has() { grep -qF "$1" <<< "$libs"; }
+if ! has 'libusb-1.0.so.0'; then need_apt+=(libusb-1.0-0); fi
 # bpy (Blender as a module) links to a few X/GL libraries that minimal images lack
 for lib in libX11.so.6:libx11-6 libXrender.so.1:libxrender1 libXxf86vm.so.1:libxxf86vm1 \
            libXfixes.so.3:libxfixes3 libXi.so.6:libxi6 libxkbcommon.so.0:libxkbcommon0 \
            libSM.so.6:libsm6 libgomp.so.1:libgomp1 libGL.so.1:libgl1 libEGL.so.1:libegl1; do
   so=${lib%%:*}; pkg=${lib##*:}
-  ldconfig -p 2>/dev/null | grep -q "$so" || need_apt+=("$pkg")
+  has "$so" || need_apt+=("$pkg")
 done
 if [ ${#need_apt[@]} -gt 0 ]; then
   echo "setup: installing system libraries: ${need_apt[*]}"
