@@ -468,8 +468,8 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     # a window framed by its reveals, unshadowed, with nothing inside its hole: the sky
     framed = (kind == "window" and w.external and not occluded and f_reveal >= p.framed_share
               and float((dd.inside[cells] > 0).mean()) < 0.5)
-    if (occluded and not (f_through >= 2 * p.min_seen_through or closed)) or (conf < p.min_confidence
-                                                                              and not framed):
+    shadow = occluded and not (f_through >= 2 * p.min_seen_through or closed)
+    if shadow or (conf < p.min_confidence and not framed):
         return None
     return {"u0": el, "u1": er, "width": er - el, "height": et - eb, "sill": eb - z0, "kind": kind,
             "open": not closed, "confidence": conf,
