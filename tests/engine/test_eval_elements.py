@@ -380,7 +380,7 @@ def test_outline_spans_party_walls_and_stair_voids_and_skips_unseen_storeys():
     r = evaluate_elements(truth, truth, seen=seen)
     assert [p["boundary_m"] for p in r["exterior"]["per_storey"]] == pytest.approx([rect, rect, 0.0])
     assert r["exterior"]["external_share"] == pytest.approx(1.0, abs=1e-9)
-    assert r["slabs"]["storeys"] == 0 or [p["floor"] for p in r["slabs"]["per_storey"]][2] is None
+    assert r["slabs"]["storeys"] == 2 and r["slabs"]["per_storey"][2]["floor"] is None
     assert r["spaces"]["truth_spaces"] == len(truth.spaces) - 1 == r["spaces"]["matched_spaces"]
     # flat A's storey-0 rooms meet without walls: one open plan, one room (4 rooms in all)
     assert r["spaces"]["truth"] == r["spaces"]["matched"] == 4
