@@ -25,11 +25,12 @@ from typing import Optional
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import InputError, MissingDependencyError
+from ..errors import InputError
 from ..evaluation.loading import transform_model
 from ..evaluation.patches import patches_from_model, sample_patch_grid
 from ..geometry.normals import knn_normals
 from ..geometry.transforms import apply_rotation, apply_transform
+from ..lazy_open3d import open3d
 from ..model import BuildingModel
 from ..progress import Progress
 
@@ -352,8 +353,7 @@ def global_candidates(xyz: np.ndarray, mp: np.ndarray, voxel: float, params: "Re
     sample; the best (on a larger subset) are returned, at most ``params.global_candidates``
     of them with poses apart by at least 10° or 1 m. Deterministic for a given ``seed``.
     """
-    import open3d as o3d
-
+    o3d = open3d("Global registration")
     sp, fs = _fpfh(o3d, xyz, voxel)
     tp, ft = _fpfh(o3d, mp, voxel)
     if len(sp) < 3 or len(tp) < 3:
@@ -466,10 +466,7 @@ def register(model: BuildingModel, xyz: np.ndarray, params: Optional[Registratio
         res = finish(init, [], "initial")
         _log_status(res)
         return res
-    try:
-        import open3d as o3d
-    except ImportError:
-        raise MissingDependencyError("open3d", "ICP registration") from None
+    o3d = open3d("ICP registration")
     reg = o3d.pipelines.registration
     target = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(mp))
     target.normals = o3d.utility.Vector3dVector(mn)

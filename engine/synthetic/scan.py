@@ -27,7 +27,8 @@ import shapely
 from shapely.geometry import Point
 from shapely.ops import unary_union
 
-from ..errors import InputError, MissingDependencyError
+from ..errors import InputError
+from ..lazy_open3d import open3d
 from ..pointcloud import PointCloud
 from ..progress import Progress
 from .mesh import (  # noqa: F401  (re-exported: the scene mesh lives in .mesh)
@@ -378,10 +379,7 @@ def _directions(step: float, params: ScanParams, offset: float) -> np.ndarray:
 
 
 def _make_scene(mesh: SceneMesh):
-    try:
-        import open3d as o3d
-    except ImportError:  # pragma: no cover
-        raise MissingDependencyError("open3d", "the scan simulation") from None
+    o3d = open3d("the scan simulation")
     scene = o3d.t.geometry.RaycastingScene()
     scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)),
                         o3d.core.Tensor(mesh.triangles.astype(np.uint32)))
