@@ -60,7 +60,7 @@ from ..segmentation.params import PreprocessParams
 from .geometry import box_of
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
-from .place import StoreyFrame, detect_levels, histogram_peaks, storey_chunks, storey_frame
+from .place import StoreyFrame, detect_levels, histogram_peaks, paired_faces, storey_chunks, storey_frame
 from .roof import roof_planes, slope_spaces
 from .rules import classify, derive_topology, reject_implausible_spaces
 
@@ -239,15 +239,17 @@ def _cell_lookup(xy: np.ndarray, cell: float):
 
 
 def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, storey: int,
-                 params: ManhattanParams, spacing: float) -> list[Shape]:
+                 params: ManhattanParams, spacing: float, oriented: bool = False) -> list[Shape]:
     """Place, compute the point-on-face indices, and classify the cuboids of one storey.
 
     Parameters
     ----------
     xyz : (n, 3) float64 — aligned points, metres, z up.
-    normals : (n, 3) float64 — unit normals (sign free).
+    normals : (n, 3) float64 — unit normals (sign free unless ``oriented``).
     frame : the storey's floor and ceiling levels.
     storey : storey index. params : grammar parameters. spacing : σ, metres.
+    oriented : the normals face their scanners: a wall's second face seen over little of
+        its area then still makes a cut (:func:`.place.paired_faces`).
 
     Returns the classified parts (cuboids), not yet merged.
     """
@@ -266,8 +268,13 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     raw = []
     for a in (0, 1):
         o, sel = 1 - a, along[a]
-        raw.append(histogram_peaks(p[sel, a], np.column_stack([p[sel, o], p[sel, 2]]), params, spacing,
-                                   params.min_wall_area))
+        found = histogram_peaks(p[sel, a], np.column_stack([p[sel, o], p[sel, 2]]), params, spacing,
+                                params.min_wall_area)
+        if oriented:
+            sa = normals[inz, a] if not inz.all() else normals[:, a]
+            found = paired_faces(found, p[sel, a], np.column_stack([p[sel, o], p[sel, 2]]), sa[sel], params,
+                                  spacing)
+        raw.append(found)
     top_band = np.zeros(len(p), dtype=bool)  # the only points _reaches_ceiling reads
     for lo, hi in _top_bands(frame, params):
         top_band |= (p[:, 2] >= lo) & (p[:, 2] <= hi)
@@ -579,6 +586,10 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
     params = _complete_params(xyz, params)
     spacing = float(params.spacing)
     timings = {}
+    sp = cloud.scanner_positions
+    # the preprocessing turns each normal toward its scanner when the scan says where they were
+    oriented = (cloud.normals is not None and sp is not None and bool(np.isfinite(sp).all())
+                and (len(sp) == 1 or (len(sp) > 1 and cloud.scan_index is not None)))
     if cloud.normals is not None:
         normals = cloud.normals.astype(np.float64)
     else:
@@ -620,7 +631,7 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
             sloped.append(si)
             roofs[si] = roof_planes(xyz[under], normals[under], spacing=spacing, buffer=params.shape_buffer,
                                     min_roof_area=params.min_roof_area)
-        parts.extend(place_storey(sx, sn, fr, si, params, spacing))
+        parts.extend(place_storey(sx, sn, fr, si, params, spacing, oriented=oriented))
         elev = float((T @ np.array([0.0, 0.0, fr.floor, 1.0]))[2] + cloud.offset[2])
         model_storeys.append(Storey(si, fr.floor, fr.ceiling, f"Storey {si}", elev))
     timings["place_classify"] = time.perf_counter() - t2

@@ -202,6 +202,11 @@ class ManhattanParams:
     Point-on-face counts ignore points within 2 σ_noise of a face's edge."""
     min_wall_area: SquareMetres = 1.5
     """A vertical histogram peak must hold at least this much surface (points × σ²), m²."""
+    min_paired_wall_area: SquareMetres = 0.2
+    """A vertical surface holding at least this much (but less than ``min_wall_area``) still
+    makes a cut when it is a wall's second face: behind a strong peak, at most
+    ``max_wall_thickness`` away, the two seen from opposite sides (oriented normals only), m²;
+    ``min_wall_area`` or more turns this off."""
     wall_top_band: Metres = 0.15
     """A wall surface reaches a ceiling: it must have points within this band below a
     ceiling level (furniture stops short of it), metres."""

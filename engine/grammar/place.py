@@ -3,7 +3,9 @@
 Wall surfaces are peaks of the histograms of x and y of the points whose normal points
 along that axis; floor and ceiling levels are peaks of the histogram of z of the points
 with vertical normals. Peaks are measured in *area* (distinct σ-cells × σ²), not in raw
-counts, so that the dense patch right under a terrestrial scanner is no peak.
+counts, so that the dense patch right under a terrestrial scanner is no peak. A wall's
+second face seen over little of its area is kept when it faces away from a strong face
+within a wall's thickness (:func:`paired_faces`).
 
 Storeys and levels. A horizontal level is a **ceiling** when most of its cells have no
 other horizontal surface above them within the storey, a **floor** when most have none
@@ -19,7 +21,8 @@ import numpy as np
 
 from .params import ManhattanParams
 
-__all__ = ["Peak", "Level", "StoreyFrame", "histogram_peaks", "detect_levels", "storey_chunks", "storey_frame"]
+__all__ = ["Peak", "Level", "StoreyFrame", "histogram_peaks", "paired_faces", "detect_levels", "storey_chunks",
+           "storey_frame"]
 
 log = logging.getLogger(__name__)
 
@@ -134,6 +137,83 @@ def histogram_peaks(t: np.ndarray, uv: np.ndarray, params: ManhattanParams, spac
         else:
             merged.append(p)
     return merged
+
+
+_SPAN_CELL = 0.1
+"""Cells (metres) along a wall in which :func:`paired_faces` compares the extents of two faces."""
+
+
+def _face_side_and_span(t: np.ndarray, sign: np.ndarray, along: np.ndarray, position: float,
+                        bs: float) -> tuple[int, set]:
+    """The side (+1 / −1 along the axis) a surface at ``position`` is seen from — the sign
+    most of its points' oriented normals agree on (``sign`` (n,), the normals' component along
+    the axis), 0 when fewer than 10 points or no clear majority (80 %) — and the cells of
+    ``_SPAN_CELL`` along the wall (``along`` (n,), metres) its points occupy."""
+    near = np.abs(t - position) <= 1.5 * bs
+    if int(near.sum()) < 10:
+        return 0, set()
+    m = float(np.mean(np.sign(sign[near])))
+    span = set(np.unique(np.floor(along[near] / _SPAN_CELL).astype(np.int64)).tolist())
+    return (int(np.sign(m)) if abs(m) >= 0.6 else 0), span
+
+
+def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: np.ndarray, params: ManhattanParams,
+                 spacing: float) -> list:
+    """``strong`` (histogram peaks of one axis) with the second faces of their walls.
+
+    A partition's second face is often seen over little of its area (furniture in front of
+    it, a room the scanner only looked into): below ``min_wall_area`` it makes no cut, the
+    rooms on both sides meet at the first face and the partition and its door are lost
+    (issue 16). A weaker surface (at least ``min_paired_wall_area``) is kept when it is the
+    other side of a strong one:
+
+    * it lies behind it, at most ``max_wall_thickness`` away;
+    * the two are seen from opposite sides, each facing away from the other (the wall's
+      body lies between them): clutter before a wall is seen from the wall's own side;
+    * it runs along the wall at least twice ``max_wall_thickness`` (a door's or window's
+      jamb, as deep as its wall, faces the same axis), and at least half of its length lies
+      where the strong face has points too (the two faces of one wall span the same stretch);
+    * no strong peak lies between the two, nor within ``max_wall_thickness`` beyond the weak
+      one: there the wall already has a second cut, and one more would only split a thin
+      interval into thinner strips, whose ceiling and floor are too narrow to be seen (on
+      sparse scans they then turn exterior inside a room).
+
+    ``t`` (n,) the points' coordinate along the axis, ``uv`` (n, 2) the other horizontal one
+    and z, ``sign`` (n,) their oriented normals' component along the axis (normals facing the
+    scanner)."""
+    if not strong or params.min_paired_wall_area >= params.min_wall_area:
+        return strong
+    bs = params.bin_size
+    have = np.array([pk.position for pk in strong])
+    along = uv[:, 0]
+    stats = {}
+    added = []
+    for w in histogram_peaks(t, uv, params, spacing, params.min_paired_wall_area):
+        gaps = w.position - have
+        if np.abs(gaps).min() < params.min_interval:
+            continue  # a strong peak already
+        fw, span = _face_side_and_span(t, sign, along, w.position, bs)
+        if fw == 0 or len(span) * _SPAN_CELL < 2 * params.max_wall_thickness:
+            continue
+        for pk, gap in zip(strong, gaps):
+            if not params.min_interval <= abs(gap) <= params.max_wall_thickness:
+                continue
+            if pk.position not in stats:
+                stats[pk.position] = _face_side_and_span(t, sign, along, pk.position, bs)
+            fp, strong_span = stats[pk.position]
+            # no strong cut between the two, none within a wall's thickness beyond the weak one
+            # (a cut there would only split a thin interval into thinner strips)
+            rel = (have - pk.position) * np.sign(gap)  # along the way from the strong face to the weak
+            if np.any((rel > 1e-9) & (rel < abs(gap) - 1e-9)) or \
+                    np.any((rel > abs(gap) + 1e-9) & (rel <= abs(gap) + params.max_wall_thickness)):
+                continue
+            # each seen from its own side, facing away from the other, along the same stretch
+            if fp * gap < 0 and fw * gap > 0 and len(span & strong_span) >= 0.5 * len(span):
+                added.append(w)
+                log.debug("second face at %.3f (%.2f m²) behind the wall face at %.3f", w.position, w.area,
+                          pk.position)
+                break
+    return sorted(strong + added, key=lambda pk: pk.position)
 
 
 def detect_levels(xyz_h: np.ndarray, params: ManhattanParams, spacing: float) -> list[Level]:

@@ -399,3 +399,49 @@ def test_attic_needs_the_flat_ceilings_to_be_few(seed):
     xyz, nrm = (np.vstack(a) for a in zip(floor, high, tilted))
     out, _, under = _with_sloped_ceiling(xyz, nrm, StoreyFrame(0.0, (3.5,)), params)
     assert under is not None and len(out) == len(xyz) + len(under) and len(under) == 4000
+
+
+def _face(y, x0, x1, z0, z1, step, rng):
+    gx, gz = np.meshgrid(np.arange(x0, x1, step), np.arange(z0, z1, step), indexing="ij")
+    t = y + rng.normal(0.0, 0.003, gx.size)
+    return t, np.column_stack([gx.ravel(), gz.ravel()])
+
+
+def test_a_walls_second_face_seen_little_still_makes_a_cut():
+    """paired_faces: a surface under min_wall_area is kept when it is the far face of a wall
+    (behind a strong face, within the wall thickness, seen from the other side); clutter in
+    front of a wall (seen from the wall's own side) and surfaces of mixed orientation are not."""
+    from engine.grammar.place import paired_faces
+    from engine.grammar.place import histogram_peaks
+
+    rng = np.random.default_rng(0)
+    params = ManhattanParams(bin_size=0.03, shape_buffer=0.03, spacing=0.02, noise=0.005)
+    parts = [  # (y, x range, z range, side the scanner saw it from: the normals' sign)
+        (0.0, (0.0, 3.0), (0.0, 2.4), -1),   # the partition's face toward y < 0, 7.2 m²
+        (0.15, (1.0, 2.0), (1.2, 2.0), +1),  # its far face, 0.8 m² seen (furniture hides the rest)
+        (-0.3, (0.2, 1.2), (0.0, 0.8), -1),  # a cabinet's front before the near face: 0.8 m²
+        (2.0, (0.0, 3.0), (0.0, 2.4), +1),   # another wall, 7.2 m²
+        (1.8, (1.0, 2.0), (1.0, 1.8), +1),   # 0.2 m behind it, seen from the same side: 0.8 m²
+    ]
+    ts, uvs, signs = [], [], []
+    for y, (x0, x1), (z0, z1), side in parts:
+        t, uv = _face(y, x0, x1, z0, z1, 0.02, rng)
+        ts.append(t), uvs.append(uv), signs.append(np.full(len(t), float(side)))
+    t, uv, sign = np.concatenate(ts), np.vstack(uvs), np.concatenate(signs)
+    strong = histogram_peaks(t, uv, params, 0.02, params.min_wall_area)
+    assert [round(p.position, 1) for p in strong] == [0.0, 2.0]
+    kept = [round(p.position, 2) for p in paired_faces(strong, t, uv, sign, params, 0.02)]
+    assert kept == [0.0, 0.15, 2.0]
+    # normals of no clear orientation (unoriented): nothing is paired
+    mixed = np.where(rng.random(len(t)) < 0.5, 1.0, -1.0)
+    assert [round(p.position, 1) for p in paired_faces(strong, t, uv, mixed, params, 0.02)] == [0.0, 2.0]
+    # off when min_paired_wall_area is not below min_wall_area
+    off = params.with_(min_paired_wall_area=params.min_wall_area)
+    assert len(paired_faces(strong, t, uv, sign, off, 0.02)) == 2
+    # a strong cut within a wall's thickness beyond the weak face (0.45 m): the interval is
+    # thin already, one more cut would only make strips
+    t2, uv2 = _face(0.45, 0.0, 3.0, 0.0, 2.4, 0.02, rng)
+    t3, uv3, sign3 = np.r_[t, t2], np.vstack([uv, uv2]), np.r_[sign, np.full(len(t2), 1.0)]
+    strong3 = histogram_peaks(t3, uv3, params, 0.02, params.min_wall_area)
+    assert [round(p.position, 2) for p in strong3] == [0.0, 0.45, 2.0]
+    assert [round(p.position, 2) for p in paired_faces(strong3, t3, uv3, sign3, params, 0.02)] == [0.0, 0.45, 2.0]
