@@ -405,7 +405,8 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     Confidence: up to 0.5 for rays seen through it, 0.25 for a gap on both faces of an
     interior wall, 0.2 for an unshadowed hole in an exterior wall, 0.15 each for floor points
     through the thickness and for reveals, 0.2 (no scanners, exterior wall) for points
-    beyond it, 0.45 for a closed door's leaf; less the shadowed (or covered) share."""
+    beyond it, 0.45 for a closed door's leaf; less the shadowed share times the share of its edges
+    without reveals (or, without scanners, the covered share)."""
     c = p.cell
     nu, nz = dd.face.shape[1:]
     rb = int(math.ceil(p.edge_band / c))
@@ -464,7 +465,9 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     conf += 0.25 * both + 0.2 * (w.external and not occluded and side is None)
     conf += 0.15 * min(1.0, f_floor / p.cue_share) + 0.15 * min(1.0, f_reveal / p.reveal_share)
     conf += 0.2 * min(1.0, n_beyond / 20.0) * (not dd.rays) * w.external + 0.45 * closed
-    conf = float(np.clip(conf - (f_occ if dd.rays else f_front), 0.0, 1.0))
+    # a shadow over a hole whose jambs and head stand inside the thickness hides part of a real
+    # opening: it weighs only as far as the reveals leave the hole unconfirmed
+    conf = float(np.clip(conf - (f_occ * (1.0 - f_reveal) if dd.rays else f_front), 0.0, 1.0))
     # a window framed by its reveals, unshadowed, with nothing inside its hole: the sky
     framed = (kind == "window" and w.external and not occluded and f_reveal >= p.framed_share
               and float((dd.inside[cells] > 0).mean()) < 0.5)

@@ -174,3 +174,23 @@ def test_a_partition_seen_little_from_one_side_keeps_its_wall_and_door(results):
     assert len(walls) == 1, [w.bounds.round(2).tolist() for w in walls]
     thickness = walls[0].bounds[1, 1] - walls[0].bounds[0, 1]
     assert abs(thickness - 0.16) <= 0.05, thickness  # measured 0.15
+
+
+@pytest.mark.slow
+def test_half_shadowed_terrace_doors_with_their_reveals_are_found(results):
+    """The Duplex, mobile, seed 6: each flat's terrace door (0.81 m, beside a 4.8 m glazed
+    wall) is 41-57 % in the shadow of furniture, seen through over 12-17 % and has its jambs
+    and head inside the wall's thickness. The shadow cost its whole share of the confidence
+    and both doors were dropped (12 of 14 found); it now weighs only as far as the reveals
+    leave the hole unconfirmed: 14 of 14, none extra. One terrace door measures 0.94 m (its
+    jamb beside the glazing is in the shadow): widths within 15 cm, not the 10 cm target."""
+    sc, m, r = _run(results, "duplex", "mobile", 6)
+    from engine.evaluation.elements import _openings
+
+    d = r["doors"]
+    assert d["true"] == d["found"] == d["matched"] == 14, d
+    assert d["width_error_max"] <= 0.15, d  # measured 0.13 m
+    matched = {t for _, t in d["pairs"]}
+    terrace = [s.id for s in _openings(sc.truth, False)
+               if min(abs(s.scope.center[1] + 0.21), abs(s.scope.center[1] + 17.59)) < 0.05 and s.scope.center[2] < 3]
+    assert len(terrace) == 2 and set(terrace) <= matched
