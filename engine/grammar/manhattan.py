@@ -265,15 +265,23 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     on_ceiling = [_ceiling_mask(p, hor, c, frame, params) for c in frame.ceilings]
     ceiling_cells = [_cell_lookup(p[m][:, :2], params.level_cell) for m in on_ceiling]
     ceiling_cells[-1] = _or_void(ceiling_cells[-1], xyz, normals, frame, params)
+    low = {}  # (axis, least area) -> the peaks of the points facing that axis: each histogram once
+
+    def peaks_of(a, area):
+        if (a, area) not in low:
+            sel = along[a]
+            uv = np.column_stack([p[sel, 1 - a], p[sel, 2]])
+            low[a, area] = histogram_peaks(p[sel, a], uv, params, spacing, area)
+        return low[a, area]
+
     raw = []
     for a in (0, 1):
-        o, sel = 1 - a, along[a]
-        found = histogram_peaks(p[sel, a], np.column_stack([p[sel, o], p[sel, 2]]), params, spacing,
-                                params.min_wall_area)
+        found = peaks_of(a, params.min_wall_area)
         if oriented:
+            sel = along[a]
             sa = normals[inz, a] if not inz.all() else normals[:, a]
-            found = paired_faces(found, p[sel, a], np.column_stack([p[sel, o], p[sel, 2]]), sa[sel], params,
-                                  spacing)
+            found = paired_faces(found, p[sel, a], np.column_stack([p[sel, 1 - a], p[sel, 2]]), sa[sel],
+                                 params, spacing, weak=peaks_of(a, params.min_paired_wall_area))
         raw.append(found)
     top_band = np.zeros(len(p), dtype=bool)  # the only points _reaches_ceiling reads
     for lo, hi in _top_bands(frame, params):
@@ -311,9 +319,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             else:
                 lo_e, hi_e = np.percentile(p[sel, a], [params.extent_percentile, 100 - params.extent_percentile])
             if weak is None:  # sparsely seen surfaces facing a that reach a ceiling
-                sa = along[a]
-                weak = [pk.position for pk in histogram_peaks(p[sa, a], np.column_stack([p[sa, o], p[sa, 2]]),
-                                                              params, spacing, params.min_bound_wall_area)
+                weak = [pk.position for pk in peaks_of(a, params.min_bound_wall_area)
                         if _reaches_ceiling(cand, a, pk.position, frame, params, spacing, None, cand[:, a])]
             t_max = params.max_wall_thickness
             lo_w = _closing_wall(lo_e, -1, weak, t_max)

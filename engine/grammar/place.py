@@ -21,8 +21,8 @@ import numpy as np
 
 from .params import ManhattanParams
 
-__all__ = ["Peak", "Level", "StoreyFrame", "histogram_peaks", "paired_faces", "detect_levels", "storey_chunks",
-           "storey_frame"]
+__all__ = ["Peak", "Level", "StoreyFrame", "histogram_peaks", "paired_faces", "detect_levels",
+           "storey_chunks", "storey_frame"]
 
 log = logging.getLogger(__name__)
 
@@ -158,7 +158,7 @@ def _face_side_and_span(t: np.ndarray, sign: np.ndarray, along: np.ndarray, posi
 
 
 def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: np.ndarray, params: ManhattanParams,
-                 spacing: float) -> list:
+                 spacing: float, weak: list | None = None) -> list:
     """``strong`` (histogram peaks of one axis) with the second faces of their walls.
 
     A partition's second face is often seen over little of its area (furniture in front of
@@ -180,7 +180,8 @@ def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: np.ndarray, 
 
     ``t`` (n,) the points' coordinate along the axis, ``uv`` (n, 2) the other horizontal one
     and z, ``sign`` (n,) their oriented normals' component along the axis (normals facing the
-    scanner)."""
+    scanner); ``weak``: the peaks of the same points at ``min_paired_wall_area`` when the
+    caller has them already."""
     if not strong or params.min_paired_wall_area >= params.min_wall_area:
         return strong
     bs = params.bin_size
@@ -188,7 +189,9 @@ def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: np.ndarray, 
     along = uv[:, 0]
     stats = {}
     added = []
-    for w in histogram_peaks(t, uv, params, spacing, params.min_paired_wall_area):
+    if weak is None:
+        weak = histogram_peaks(t, uv, params, spacing, params.min_paired_wall_area)
+    for w in weak:
         gaps = w.position - have
         if np.abs(gaps).min() < params.min_interval:
             continue  # a strong peak already
