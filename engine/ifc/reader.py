@@ -8,7 +8,8 @@ derives the topology from the space boundaries:
 * adjacency ``(space, space, via=wall)`` and connectivity ``(space, space, via=door)`` from
   pairs of boundaries pointing at each other (``CorrespondingBoundary``); in files without
   such pairs, two spaces bounded by the same wall on opposite sides of it are adjacent and
-  two spaces bounded by the same door are connected;
+  two spaces bounded by the same door are connected (the two on its sides, ``spaces``
+  below, where more than two boundaries name the door);
 * virtual boundaries (``IfcVirtualElement``) give relations without a wall or door.
 
 Shapes are vertical prisms (:meth:`Polyhedron.prism`) when the tessellation is one,
@@ -637,6 +638,13 @@ class _Reader:
                             pairs.add(tuple(sorted((a, other))))
             else:
                 names = sorted(spaces)
+                sides = [x for x in (shapes[via].attributes.get("spaces") or ()) if x in spaces] \
+                    if kinds == ("connectivity",) and via in shapes else []
+                if len(names) > 2 and len(sides) == 2:
+                    # a door joins the two spaces on its two sides: a third space whose
+                    # boundary also names it (the Duplex's utility door lists the hallway
+                    # 13 cm past its end) is not reached through it
+                    names = sorted(sides)
                 for i in range(len(names)):
                     for j in range(i + 1, len(names)):
                         if kinds == ("adjacency",) and via in shapes and \

@@ -108,6 +108,10 @@ def test_duplex_windows_doors_and_attributes():
                            [("Bathroom 1", "Foyer")] * 2 + [("Bedroom 2", "Hallway")] * 2 +
                            [("Bedroom 1", "Hallway")] * 2 + [("Bathroom 2", "Hallway")] * 2 +
                            [("Bathroom 2", "Utility")] * 2)
+    # a door joins the two spaces on its sides: the utility doors' boundaries also name the
+    # hallway, 13 cm past their ends, which they do not reach (10 edges, one per inner door)
+    joined = sorted(tuple(sorted(names[x] for x in (r.a, r.b))) for r in m.relations_of("connectivity"))
+    assert joined == sorted(p for p in pairs if "outside" not in p)
     # windows without a space boundary get their room by geometry
     assert all(len(w.attributes["spaces"]) == 2 and w.attributes["spaces"][0] in names for w in m.windows)
     assert sorted({round(w.attributes["sill"], 3) for w in m.windows if w.storey == 2}) == [0.1, 0.925, 1.751]
