@@ -234,7 +234,8 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, 
             scans.append(np.bincount(k, minlength=n_scans))
         else:
             scans.append(np.zeros(0, np.int64))
-    either = edge[0] | edge[1] | (inside & core & inz)
+    # the reveals up to the ceiling: a head's soffit may stand less than edge_band under it
+    either = edge[0] | edge[1] | (inside & (z > w.floor_z + p.edge_band) & inz)
     return _Data(face=np.stack([raster(on[0]), raster(on[1])]),
                  inside=raster(inside & core & inz),
                  floor=np.bincount(iu[inside & low], minlength=nu).astype(np.float64),
@@ -394,7 +395,15 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
         if ceil_reach or width > p.max_door_width or min(w.top, z1) - et <= p.ceiling_tolerance:
             return el, er, z0, et, "opening"
         return (el, er, z0, et, "door") if et - z0 >= p.min_door_height else None
-    if ceil_reach or not p.min_window_width <= width <= p.max_opening_width or et - eb < p.min_window_height:
+    if ceil_reach:
+        # the raster leaves out the band under the ceiling (``edge_band``), so a window whose
+        # head stands a few centimetres under it (glazing up to the ceiling) reaches the
+        # raster's top: its head's soffit, a plane inside the thickness, tells it from a hole
+        # up to the ceiling (whose ceiling runs on over the thickness, at the ceiling)
+        et = hole_edge(fz[fin], fu[fin], fin[fin], zt - c, zt + srch, el + 0.05, er - 0.05, False)
+        if et is None or z1 - et < p.min_head:
+            return None
+    if not p.min_window_width <= width <= p.max_opening_width or et - eb < p.min_window_height:
         return None
     return el, er, eb, et, "window"
 

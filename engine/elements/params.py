@@ -74,6 +74,9 @@ class OpeningParams:
     this many columns (a taller gap needs half its columns), cells."""
     ceiling_tolerance: Metres = 0.15
     """A gap ending this close to the ceiling reaches the ceiling, metres."""
+    min_head: Metres = 0.05
+    """A gap above the floor that reaches the ceiling is a window when its head's soffit (a
+    plane inside the thickness) lies this far under the ceiling or more, metres."""
     min_seen_through: Ratio = 0.15
     """Share of a gap's cells crossed by scanner rays that makes it seen through."""
     max_occluded: Ratio = 0.4

@@ -241,6 +241,22 @@ def test_a_tall_window_with_a_low_sill_is_a_window_not_a_door(rays, sill):
 
 
 @pytest.mark.parametrize("rays", [True, False])
+def test_glazing_up_to_just_under_the_ceiling_is_a_window(rays):
+    """A 2 m window from a 0.5 m sill to 6 cm under the ceiling (the Duplex's terrace glazing
+    stops 8 cm under it): the gap raster leaves out the 8 cm band under the ceiling, so the
+    hole reached the ceiling there and was dropped; its head's soffit inside the thickness
+    tells it from a hole up to the ceiling, which stays no window (its ceiling runs on over
+    the thickness)."""
+    ops = _glazed_exterior_hole((1.5, 3.5, 0.5, H - 0.06), rays)
+    assert len(ops) == 1, [o.attributes for o in ops]
+    a = ops[0].attributes
+    assert ops[0].type == ShapeType.WINDOW and a["kind"] == "window", a
+    assert abs(a["sill"] - 0.5) <= 0.05 and abs(a["sill"] + a["height"] - (H - 0.06)) <= 0.03, a
+    assert abs(a["width"] - 2.0) <= 0.05
+    assert _glazed_exterior_hole((1.5, 3.5, 0.5, H), rays) == []
+
+
+@pytest.mark.parametrize("rays", [True, False])
 def test_a_door_beside_a_window_in_one_hole_is_a_door_and_a_window(rays):
     """A glazed door (u 1.0-1.9, from the floor) beside a window (u 1.96-4.0, sill 0.3 m), both
     to 2.3 m, only a thin mullion inside the thickness between them: the faces show one hole;
