@@ -60,7 +60,8 @@ from ..segmentation.params import PreprocessParams
 from .geometry import box_of
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
-from .place import StoreyFrame, detect_levels, histogram_peaks, paired_faces, storey_chunks, storey_frame
+from .place import (StoreyFrame, detect_levels, given_frame, histogram_peaks, paired_faces, storey_chunks,
+                    storey_frame)
 from .roof import roof_planes, slope_spaces
 from .rules import classify, derive_topology, reject_implausible_spaces
 
@@ -616,9 +617,12 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
         top = float(xyz[:, 2].max())
         chunks = [(lo - m, (fl[i + 1][0] - m) if i + 1 < len(fl) else max(top, hi + m))
                   for i, (lo, hi) in enumerate(fl)]
-    for lo, hi in chunks:
+    for i, (lo, hi) in enumerate(chunks):
         m = hor & (xyz[:, 2] >= lo) & (xyz[:, 2] <= hi)
-        fr = storey_frame(detect_levels(xyz[m], params, spacing), params)
+        levels = detect_levels(xyz[m], params, spacing)
+        fr = storey_frame(levels, params)
+        if fr is None and storeys is not None:
+            fr = given_frame(levels, fl[i], params)
         if fr is not None:
             frames.append(fr)
     if not frames:

@@ -298,3 +298,23 @@ def storey_frame(levels: list[Level], params: ManhattanParams):
         return None
     ceilings = [lv for lv in above if lv.exposed_up >= thr] or [above[-1]]
     return StoreyFrame(float(floor.z), tuple(float(c.z) for c in ceilings))
+
+
+def given_frame(levels: list, storey: tuple, params: ManhattanParams) -> StoreyFrame | None:
+    """The frame of a storey found by the preprocessing whose own levels give none: the top of
+    an attic under a pitched roof (the preprocessing follows its points up to the ridge) is no
+    horizontal level when its flat strip, seen at a grazing angle, holds under
+    ``min_level_area`` in σ-cells (FZK-Haus's attic at 1M points: σ 4 cm, the ridge 1.5 m²;
+    at 300k, σ 7 cm, 2.7 m²), and the storey was dropped. Its floor is the exposed level
+    nearest the given floor (within half a storey), else the given floor; its ceiling the
+    given top. ``storey`` : (floor_z, ceiling_z) metres. None when lower than a storey."""
+    f, c = storey
+    if c - f < params.min_storey_height:
+        return None
+    near = [lv.z for lv in levels if abs(lv.z - f) <= params.min_storey_height / 2
+            and lv.exposed_down >= params.level_exposed]
+    floor = min(near, key=lambda z: abs(z - f)) if near else f
+    if c - floor < params.min_storey_height:
+        return None
+    log.info("storey at z = %.2f: no ceiling level of its own; the preprocessing's top %.2f m", floor, c)
+    return StoreyFrame(float(floor), (float(c),))

@@ -21,16 +21,16 @@ def results():
     return {}
 
 
-def _run(results, name, noise, seed):
+def _run(results, name, noise, seed, points=300_000):
     """A preset or an IFC-built scene (fzk_haus, duplex) scanned, reconstructed and scored."""
-    key = (name, noise, seed)
+    key = (name, noise, seed, points)
     if key not in results:
         if name in ("fzk_haus", "duplex"):
             from engine.synthetic.ifcscene import ifc_scene
 
-            sc = ifc_scene(name, seed=seed, noise=noise, target_points=300_000)
+            sc = ifc_scene(name, seed=seed, noise=noise, target_points=points)
         else:
-            sc = preset(name, seed=seed, noise=noise, target_points=300_000)
+            sc = preset(name, seed=seed, noise=noise, target_points=points)
         m = reconstruct(sc.cloud, "auto", rng=0)
         results[key] = (sc, m, evaluate_elements(m, sc.truth))
     return results[key]
@@ -194,3 +194,21 @@ def test_half_shadowed_terrace_doors_with_their_reveals_are_found(results):
     terrace = [s.id for s in _openings(sc.truth, False)
                if min(abs(s.scope.center[1] + 0.21), abs(s.scope.center[1] + 17.59)) < 0.05 and s.scope.center[2] < 3]
     assert len(terrace) == 2 and set(terrace) <= matched
+
+
+@pytest.mark.slow
+def test_a_dense_scan_keeps_the_attic_storey(results):
+    """FZK-Haus, TLS, 1M points, seed 10: the attic's ridge strip holds 1.5 m² in σ-cells at this
+    density (σ 4 cm), under the 2 m² a level needs, and the grammar dropped the storey that the
+    preprocessing had found: no Galerie, half the exterior walls, no roof slab (exterior share
+    0.50, ceilings 1 of 2, walls 9 of 13). The preprocessing's storey frames it now: the
+    figures of 300k points (exterior walls all round, a floor and a roof over both storeys,
+    13 wall runs, the Galerie matched)."""
+    sc, m, r = _run(results, "fzk_haus", "tls", 10, points=1_000_000)
+    assert len(m.storeys) == 2
+    assert r["exterior"]["external_share"] >= 0.99
+    s = r["slabs"]
+    assert s["floor_found"] == s["ceiling_found"] == s["storeys"] == 2
+    assert r["walls"]["model"] == r["walls"]["truth_runs"] == 13
+    names = {t.id: t.name for t in sc.truth.spaces}
+    assert "Galerie" in {names[t] for _, t in r["spaces"]["pairs"]}

@@ -445,3 +445,21 @@ def test_a_walls_second_face_seen_little_still_makes_a_cut():
     strong3 = histogram_peaks(t3, uv3, params, 0.02, params.min_wall_area)
     assert [round(p.position, 2) for p in strong3] == [0.0, 0.45, 2.0]
     assert [round(p.position, 2) for p in paired_faces(strong3, t3, uv3, sign3, params, 0.02)] == [0.0, 0.45, 2.0]
+
+
+def test_a_storey_without_a_ceiling_level_keeps_the_preprocessings_top():
+    """FZK-Haus's attic at 1M points: its ridge's flat strip, seen at a grazing angle, holds
+    1.5 m² in σ-cells (2.7 m² at 300k), under ``min_level_area`` (2 m²): the storey had one
+    level, no frame, and was dropped with its rooms, walls and slabs. The preprocessing's
+    storey (its top followed up the roof) gives the frame: the floor level found, its top."""
+    from engine.grammar.place import Level, given_frame, storey_frame
+
+    params = ManhattanParams()
+    floor = Level(2.702, 64.7, 1.0, 1.0)
+    assert storey_frame([floor], params) is None
+    fr = given_frame([floor], (2.700, 6.031), params)
+    assert fr.floor == pytest.approx(2.702) and fr.ceilings == (pytest.approx(6.031),)
+    # no exposed level near the given floor: the given floor; a storey lower than a storey: none
+    fr = given_frame([Level(4.0, 3.0, 1.0, 0.2)], (2.700, 6.031), params)
+    assert fr.floor == pytest.approx(2.700)
+    assert given_frame([floor], (2.700, 2.700 + 0.9 * params.min_storey_height), params) is None
