@@ -6,7 +6,8 @@
   spaces and doors with their storeys and topology.
 * :func:`read_mesh` — OBJ / PLY surface mesh → BuildingModel (reference surfaces).
 """
-from .reader import IfcReadParams, read_ifc, read_mesh, read_reference
+from .mesh import read_mesh
+from .reader import IfcReadParams, read_ifc, read_reference
 from .writer import IfcWriteParams, build_ifc, write_ifc
 
 __all__ = ["IfcWriteParams", "IfcReadParams", "write_ifc", "build_ifc", "read_ifc", "read_mesh",
