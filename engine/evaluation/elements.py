@@ -37,7 +37,9 @@ figures:
   through another wall's footprint, as at a T-junction).
 * ``connectivity`` — the room pairs joined by a door (the exterior is one node per storey) in
   the model and the truth, model rooms named after the true room they match (greedy by
-  footprint IoU); equal, missing and extra edges.
+  footprint IoU), the rooms of one open plan one node (as ``spaces`` counts them: a door into
+  the Duplex's foyer is a door into its open plan with the living room and kitchen, whichever
+  of them names the model's space); equal, missing and extra edges.
 
 With ``seen`` (the true spaces a scan reaches), storeys without a seen space are not scored
 for exterior walls, slabs, doors and windows, and unseen spaces are neither counted as rooms
@@ -442,8 +444,11 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     scored = {_truth_storey(s, truth) for s in rooms}
     outlines = [exterior_outline(truth, k, params.outline_closing, seen) for k in range(len(truth.storeys))]
     m2t, ious = _match_rooms(model, truth, params)
-    truth_edges = _door_edges(truth, truth, lambda sid: sid)
-    model_edges = _door_edges(model, truth, lambda sid: m2t.get(sid, f"model:{sid}"))
+    # the rooms of one open plan are one node, as the room scores count them
+    group = {t: min(g) for st in plans["per_storey"] for g in st.get("true_group_ids", ()) for t in g}
+    truth_edges = _door_edges(truth, truth, lambda sid: group.get(sid, sid))
+    model_edges = _door_edges(model, truth, lambda sid: group.get(m2t[sid], m2t[sid]) if sid in m2t
+                              else f"model:{sid}")
     truth_runs = true_wall_runs(truth, params)
     model_runs = true_wall_runs(model, params)
     n_true_rooms = len(rooms)

@@ -197,7 +197,8 @@ def room_scores(model: BuildingModel, truth: BuildingModel,
                         mean_iou=float(np.mean([v for _, _, v in pairs])) if pairs else float("nan"),
                         ious=[round(float(v), 3) for v in t_iou], small_spurious=spurious,
                         outside_m2=round(out_k, 3),
-                        true_groups=[[trooms[x].name or trooms[x].id for x in g] for g in tgroups]))
+                        true_groups=[[trooms[x].name or trooms[x].id for x in g] for g in tgroups],
+                        true_group_ids=[[trooms[x].id for x in g] for g in tgroups]))
         tot["true"] += len(tg)
         tot["model"] += len(mg)
         tot["matched"] += len(pairs)

@@ -10,6 +10,7 @@ import json
 import numpy as np
 import pytest
 from shapely.geometry import Polygon
+from shapely.ops import unary_union
 
 from engine.errors import InputError
 from engine.evaluation import (ElementMatchParams, evaluate, evaluate_elements, exterior_outline,
@@ -398,3 +399,39 @@ def test_outline_spans_party_walls_and_stair_voids_and_skips_unseen_storeys():
     party = [w.id for w in truth.walls if not w.attributes["external"]]
     r = evaluate_elements(truth.replace_shapes(remove=set(party)), truth, seen=seen)
     assert r["exterior"]["any_share"] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_a_door_into_an_open_plan_is_a_door_into_the_whole_plan():
+    """The Duplex's foyer, living room and kitchen of a flat are one open plan (one room in the
+    room scores). A model that has them as one space names it after the living room (the
+    best overlap), so its front door joined "Living Room" to the exterior while the truth's
+    joins "Foyer": a missing and an extra edge for the same door. Open plans are one node of
+    the graph as they are one room: equal."""
+    import os
+
+    from engine.evaluation.elements import _plan
+    from engine.evaluation.rooms import room_scores
+    from engine.ifc import read_ifc
+    from scenes import DATA
+
+    truth = read_ifc(os.path.join(DATA, "Duplex_A_20110907_architecture.ifc"))
+    groups = [g for st in room_scores(truth, truth)["per_storey"] for g in st["true_group_ids"] if len(g) > 1]
+    names = {s.id: s.name for s in truth.spaces}
+    plan = next(g for g in groups if "Foyer" in {names[x] for x in g})
+    assert {names[x] for x in plan} >= {"Foyer", "Living Room"}
+    union = unary_union([_plan(truth[x], truth) for x in plan])
+    z0 = min(truth[x].bounds[0, 2] for x in plan)
+    z1 = max(truth[x].bounds[1, 2] for x in plan)
+    merged = Shape("m_plan", ShapeType.INTERIOR, Polyhedron.prism(np.asarray(union.exterior.coords)[:-1], z0, z1),
+                   storey=truth[plan[0]].storey)
+    rel = tuple(Relation(r.kind, "m_plan" if r.a in plan else r.a, "m_plan" if r.b in plan else r.b, r.via)
+                for r in truth.relations if not (r.a in plan and r.b in plan))
+    doors = [d.with_(attributes={**d.attributes, "spaces": ["m_plan" if x in plan else x
+                                                             for x in d.attributes.get("spaces", [])]})
+             for d in truth.doors]
+    model = truth.replace_shapes(merged, *doors, remove=set(plan)).with_(relations=rel)
+    r = evaluate_elements(model, truth)
+    assert ["m_plan", next(x for x in plan if names[x] == "Living Room")] in r["spaces"]["pairs"]
+    c = r["connectivity"]
+    assert c["equal"], c
+    assert c["truth_edges"] == c["model_edges"] >= 6
