@@ -60,6 +60,7 @@ from ..segmentation.params import PreprocessParams
 from .geometry import box_of
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
+from .passages import doorway_tops, wide_passages
 from .place import (StoreyFrame, detect_levels, given_frame, histogram_peaks, paired_faces, storey_chunks,
                     storey_frame)
 from .roof import roof_planes, slope_spaces
@@ -434,7 +435,8 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             types[i, j, k] = ShapeType.WALL
             shapes[(i, j, k)] = s.logged(f"classify: wall junction, {walls} neighbouring walls -> wall",
                                          type=ShapeType.WALL, terminal=True)
-    _wide_passages(shapes, types, params)
+    doorway_tops(shapes, types, lowest, X, Y, params, spacing, margin)
+    wide_passages(shapes, types, params)
     _open_voids(shapes, types, xyz, normals, frame, params)
     return [shapes[key] for key in sorted(shapes)]
 
@@ -462,41 +464,6 @@ def _sparse_tops(uv: np.ndarray, FZ: np.ndarray, X: np.ndarray, Y: np.ndarray, p
         index = grid_face_index(near, X[i:i + 2], Y[j:j + 2], spacing, margin, radii=r)
         out[int(i), int(j)] = float(index[0, 0])
     return out
-
-
-def _wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams) -> None:
-    """Wide openings under a beam or a lintel (issue 19: open plans), in place.
-
-    A thin exterior cuboid on the floor, at least ``min_passage_width`` long, between two
-    interior cuboids across its thin axis, with the floor seen under it (IPoF(bottom) ≥ τ: no
-    wall stands there) and neither face to those rooms seen (IPoF < τ), is the passage
-    between two parts of one open plan — its top is a beam or a lintel, not a ceiling. It
-    becomes interior and joins the narrower side; its face toward the wider side is an open
-    boundary (``attributes["open_face"]``): the spaces split there ("split it at a beam")
-    and are connected without a wall (an IfcVirtualElement). Doors (narrower) keep their
-    rooms apart."""
-    if params.min_passage_width <= 0:
-        return
-    tau = params.tau
-    for (i, j, k), s in list(shapes.items()):
-        ax = s.attributes["thin_axis"]
-        if k != 0 or s.type != ShapeType.EXTERIOR or ax not in (0, 1):
-            continue
-        size = s.geometry.bounds[1] - s.geometry.bounds[0]
-        faces = (5, 3) if ax == 0 else (2, 4)
-        nb = [(i - 1, j, k), (i + 1, j, k)] if ax == 0 else [(i, j - 1, k), (i, j + 1, k)]
-        if size[1 - ax] < params.min_passage_width or s.support.get("ipof_bottom", 0.0) < tau or \
-                any(s.support.get(f"ipof_f{q}", 1.0) >= tau for q in faces) or \
-                not all(q in shapes and types[q] == ShapeType.INTERIOR for q in nb):
-            continue
-        # it joins the narrower side (a hall, a corridor); the open boundary is toward the wider
-        wide = int(np.argmax([float(np.ptp(shapes[q].geometry.bounds[:, ax])) for q in nb]))
-        types[i, j, k] = ShapeType.INTERIOR
-        shapes[(i, j, k)] = s.logged(
-            f"classify: {size[1 - ax]:.2f} m wide passage between two interiors, floor seen "
-            f"(IPoF(bottom)={s.support['ipof_bottom']:.2f}), no wall -> interior, open to {shapes[nb[wide]].id}",
-            type=ShapeType.INTERIOR, terminal=False,
-            attributes={**s.attributes, "open_face": faces[wide]})
 
 
 def _open_voids(shapes: dict, types: np.ndarray, xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame,

@@ -212,3 +212,24 @@ def test_a_dense_scan_keeps_the_attic_storey(results):
     assert r["walls"]["model"] == r["walls"]["truth_runs"] == 13
     names = {t.id: t.name for t in sc.truth.spaces}
     assert "Galerie" in {names[t] for _, t in r["spaces"]["pairs"]}
+
+
+@pytest.mark.slow
+def test_a_doorway_whose_top_only_the_ceilings_noise_covers_is_a_door(results):
+    """The Duplex, mobile, 1M points, seed 10: the ceiling's points next to the 12 cm wall
+    between a bedroom and its hallway, pushed into the wall's footprint by the range noise,
+    covered the doorway's top (IPoF 0.48 from 9 points): the doorway was a room part, the
+    bedroom and the hallway one space (IoU 0.64) and the door lost. Measured again with wider
+    margins across the wall, its top is unseen: the door (0.86 m, centre x 1.92 m, y -6.19 m)
+    is found and the two rooms are two spaces."""
+    sc, m, r = _run(results, "duplex", "mobile", 10, points=1_000_000)
+    from engine.evaluation.elements import _openings
+
+    door = next(d for d in _openings(sc.truth, False)
+                if abs(d.scope.center[0] - 1.92) < 0.05 and abs(d.scope.center[1] + 6.19) < 0.05)
+    assert door.id in {t for _, t in r["doors"]["pairs"]}, r["doors"]
+    names = {t.id: t.name for t in sc.truth.spaces}
+    flat = [names[t] for _, t in r["spaces"]["pairs"] if sc.truth[t].bounds[0, 0] < 3.0 and sc.truth[t].storey == 2]
+    assert sorted(flat).count("Hallway") == 1 and sorted(flat).count("Bedroom 2") == 1, flat
+    merged = [mm for mm, t in r["spaces"]["pairs"] if names[t] in ("Hallway", "Bedroom 2") and sc.truth[t].bounds[0, 0] < 3.0]
+    assert len(set(merged)) == 2, merged

@@ -356,7 +356,7 @@ def _row_of_cuboids(widths, thin_len, bottom, faces, types):
     (3.4, 0.99, 0.45, ShapeType.EXTERIOR),   # a face of it seen: a wall with a low opening
 ])
 def test_wide_passage_joins_rooms(length, bottom, face, expect):
-    from engine.grammar.manhattan import _wide_passages
+    from engine.grammar.passages import wide_passages as _wide_passages
 
     I, E = ShapeType.INTERIOR, ShapeType.EXTERIOR
     shapes, types = _row_of_cuboids((4.0, 0.24, 1.5), length, bottom, {2: face, 4: 0.08}, (I, E, I))

@@ -1,0 +1,91 @@
+"""Thin cuboids between rooms after the classification (docs/method.md §2): doorways whose
+top only the ceiling's noise made look seen (:func:`doorway_tops`), and wide passages under a
+beam or a lintel that join two parts of an open plan (:func:`wide_passages`). Both change
+``shapes`` / ``types`` of :func:`.manhattan.place_storey` in place."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..model import ShapeType
+from .ipof import grid_face_index, local_radii
+from .params import ManhattanParams
+
+__all__ = ["doorway_tops", "wide_passages"]
+
+
+def doorway_tops(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndarray, Y: np.ndarray,
+                  params: ManhattanParams, spacing: float, margin: float) -> None:
+    """Doorways whose top only the ceiling's noise made look seen, in place (issue 16).
+
+    A thin interior cuboid on the floor in the middle of a wall run (a wall part of that run
+    at one end along it, a part or a junction at the other: a sliver between two close cuts
+    ends at junctions), both its long faces unseen (a gap through the wall), is a doorway
+    under a lintel unless the ceiling runs on over it. A ceiling's points
+    near a wall, pushed along their shallow rays by the range noise (about twice the surface
+    noise measured across a surface), fall into the wall's footprint at the ceiling's height
+    from both sides and covered the doorway's top between the margins (Duplex, 1M mobile
+    points: top 0.48, a bedroom and its hallway one room). Its top is measured again with a
+    margin of ``3 margin`` (up to a third of its width, :func:`.ipof.grid_face_index`), σ
+    discs and sparse (``ceiling_reach``) alike: under τ both, it is exterior (the wall's
+    door is found in it). ``uv`` : (n, 2) the lowest ceiling's points, metres."""
+    tau, reach = params.tau, params.ceiling_reach * spacing
+    for (i, j, k), s in list(shapes.items()):
+        ax = s.attributes["thin_axis"]
+        if k != 0 or s.type != ShapeType.INTERIOR or ax not in (0, 1) or \
+                ((i, j, 1) in shapes and types[i, j, 1] == ShapeType.INTERIOR):
+            continue
+        run = [(i, j - 1, k), (i, j + 1, k)] if ax == 0 else [(i - 1, j, k), (i + 1, j, k)]
+        if not all(q in shapes and types[q] == ShapeType.WALL and shapes[q].attributes["thin_axis"] in (ax, 2)
+                   for q in run) or not any(shapes[q].attributes["thin_axis"] == ax for q in run) or \
+                any(s.support.get(f"ipof_f{q}", 1.0) >= tau for q in ((3, 5) if ax == 0 else (2, 4))):
+            continue
+        lo, hi = np.array([X[i], Y[j]]) - 2 * reach, np.array([X[i + 1], Y[j + 1]]) + 2 * reach
+        near = uv[(uv >= lo).all(axis=1) & (uv <= hi).all(axis=1)]
+        kw = dict(thin=params.max_wall_thickness, thin_margin=3.0 * margin)
+        top = float(grid_face_index(near, X[i:i + 2], Y[j:j + 2], spacing, margin, **kw)[0, 0])
+        sparse = top
+        if reach > spacing and len(near):
+            r = local_radii(near, spacing, reach)
+            sparse = float(grid_face_index(near, X[i:i + 2], Y[j:j + 2], spacing, margin, radii=r, **kw)[0, 0])
+        if max(top, sparse) >= tau:
+            continue
+        types[i, j, k] = ShapeType.EXTERIOR
+        shapes[(i, j, k)] = s.logged(
+            f"classify: in a wall run, both long faces unseen (a gap through it), its top seen only near "
+            f"the wall's faces (IPoF {top:.2f}, sparse {sparse:.2f} at a {3.0 * margin:.3f} m margin) "
+            "-> exterior (a doorway under a lintel)", type=ShapeType.EXTERIOR, terminal=True)
+
+
+def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams) -> None:
+    """Wide openings under a beam or a lintel (issue 19: open plans), in place.
+
+    A thin exterior cuboid on the floor, at least ``min_passage_width`` long, between two
+    interior cuboids across its thin axis, with the floor seen under it (IPoF(bottom) ≥ τ: no
+    wall stands there) and neither face to those rooms seen (IPoF < τ), is the passage
+    between two parts of one open plan — its top is a beam or a lintel, not a ceiling. It
+    becomes interior and joins the narrower side; its face toward the wider side is an open
+    boundary (``attributes["open_face"]``): the spaces split there ("split it at a beam")
+    and are connected without a wall (an IfcVirtualElement). Doors (narrower) keep their
+    rooms apart."""
+    if params.min_passage_width <= 0:
+        return
+    tau = params.tau
+    for (i, j, k), s in list(shapes.items()):
+        ax = s.attributes["thin_axis"]
+        if k != 0 or s.type != ShapeType.EXTERIOR or ax not in (0, 1):
+            continue
+        size = s.geometry.bounds[1] - s.geometry.bounds[0]
+        faces = (5, 3) if ax == 0 else (2, 4)
+        nb = [(i - 1, j, k), (i + 1, j, k)] if ax == 0 else [(i, j - 1, k), (i, j + 1, k)]
+        if size[1 - ax] < params.min_passage_width or s.support.get("ipof_bottom", 0.0) < tau or \
+                any(s.support.get(f"ipof_f{q}", 1.0) >= tau for q in faces) or \
+                not all(q in shapes and types[q] == ShapeType.INTERIOR for q in nb):
+            continue
+        # it joins the narrower side (a hall, a corridor); the open boundary is toward the wider
+        wide = int(np.argmax([float(np.ptp(shapes[q].geometry.bounds[:, ax])) for q in nb]))
+        types[i, j, k] = ShapeType.INTERIOR
+        shapes[(i, j, k)] = s.logged(
+            f"classify: {size[1 - ax]:.2f} m wide passage between two interiors, floor seen "
+            f"(IPoF(bottom)={s.support['ipof_bottom']:.2f}), no wall -> interior, open to {shapes[nb[wide]].id}",
+            type=ShapeType.INTERIOR, terminal=False,
+            attributes={**s.attributes, "open_face": faces[wide]})
