@@ -39,6 +39,8 @@ Departures from the thesis (docs/method.md §2):
   hidden inside the walls) between at least two walls is a wall. A cuboid on the floor
   whose ceiling is seen only sparsely (``ipof_top_sparse``: each point covers its local
   spacing, up to ``ceiling_reach`` σ) over a seen floor is interior (:func:`.rules.classify`).
+  A thin interior cuboid in a wall run with both long faces unseen whose top is seen only
+  near the wall's faces (the ceiling's range noise) is a doorway (:func:`.passages.doorway_tops`).
 """
 from __future__ import annotations
 
