@@ -43,7 +43,8 @@ figures:
 
 With ``seen`` (the true spaces a scan reaches), storeys without a seen space are not scored
 for exterior walls, slabs, doors and windows, and unseen spaces are neither counted as rooms
-nor part of the outline.
+nor part of the outline: a door into one leads outside, to its storey's exterior node (a scan
+sees a door into a closed, unscanned room as a door out of the scanned building).
 
 Models lacking attributes fall back to geometry: wall axis and thickness from the footprint's
 minimum-area box; ``external`` from ``exterior``, the wall's ``sides`` or adjacency
@@ -422,8 +423,8 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
         Ids of the true spaces the scan reaches (:func:`engine.evaluation.rooms.scanned_spaces`).
         A storey none of whose spaces was seen (an IFC roof level no ray enters) has no
         exterior boundary, slabs, doors or windows (a roof light) to score; unseen spaces do
-        not count as rooms to find, nor are they part of a storey's outline.
-        None: every space counts.
+        not count as rooms to find, nor are they part of a storey's outline (a door into one
+        leads to the storey's exterior node of the door graph). None: every space counts.
 
     Returns
     -------
@@ -446,7 +447,8 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     m2t, ious = _match_rooms(model, truth, params)
     # the rooms of one open plan are one node, as the room scores count them
     group = {t: min(g) for st in plans["per_storey"] for g in st.get("true_group_ids", ()) for t in g}
-    truth_edges = _door_edges(truth, truth, lambda sid: group.get(sid, sid))
+    truth_edges = _door_edges(truth, truth, lambda sid: group.get(sid, sid) if seen is None or sid in seen
+                              else f"exterior_s{_storey_of(truth[sid], truth)}")
     model_edges = _door_edges(model, truth, lambda sid: group.get(m2t[sid], m2t[sid]) if sid in m2t
                               else f"model:{sid}")
     truth_runs = true_wall_runs(truth, params)

@@ -435,3 +435,26 @@ def test_a_door_into_an_open_plan_is_a_door_into_the_whole_plan():
     c = r["connectivity"]
     assert c["equal"], c
     assert c["truth_edges"] == c["model_edges"] >= 6
+
+
+def test_a_door_into_an_unseen_room_leads_outside(office):
+    """An unscanned room (unscanned_room: a closed office no position sees) is no room to find
+    and lies outside the scored outline; a model sees the door into it as a door out of the
+    building. With ``seen`` the true edge goes to the storey's exterior node: equal; without,
+    the edge to the room is missing (the one to the exterior is the corridor's front door's
+    too)."""
+    room = office[_room_id(office, "Room 6")]
+    rel = [r for r in office.relations if room.id not in (r.a, r.b)]
+    doors = []
+    for r in office.relations_of("connectivity"):
+        if room.id in (r.a, r.b):
+            rel.append(Relation("connectivity", r.other(room.id), "exterior_s0", r.via))
+            d = office[r.via]
+            doors.append(d.with_(attributes={**d.attributes, "spaces": [r.other(room.id), "exterior_s0"]}))
+    assert doors
+    model = office.replace_shapes(*doors, remove={room.id}).with_(relations=tuple(rel))
+    seen = {s.id for s in office.spaces} - {room.id}
+    c = evaluate_elements(model, office, seen=seen)["connectivity"]
+    assert c["equal"], c
+    c = evaluate_elements(model, office)["connectivity"]
+    assert not c["equal"] and c["missing"] == sorted(sorted([d.attributes["spaces"][0], room.id]) for d in doors)
