@@ -183,6 +183,7 @@ class _Data:
     leaf: np.ndarray           # points leaf_depth behind each face
     through: np.ndarray        # ray test: cells seen through from each side
     shadow: np.ndarray         # ray test: cells hidden by points in front
+    behind: np.ndarray         # ray test: cells hidden by another wall (the scanner stands behind it)
     fu: np.ndarray             # u, z of the face and inside points, metres
     fz: np.ndarray
     fcls: np.ndarray           # 0 / 1: on the left / right face, 2: inside the thickness
@@ -247,14 +248,47 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, 
                  front=np.stack([raster(front[0] & mid), raster(front[1] & mid)]),
                  leaf=np.stack([raster(leaf[0] & core & inz), raster(leaf[1] & core & inz)]),
                  through=np.zeros((2, nu, nz)), shadow=np.zeros((2, nu, nz)),
+                 behind=np.zeros((2, nu, nz)),
                  fu=u[either], fz=z[either], scans=scans,
                  fcls=np.where(edge[0], 0, np.where(edge[1], 1, 2))[either].astype(np.int8),
                  fdev=np.where(edge[0], vl - v, np.where(edge[1], v - vr, 0.0))[either])
 
 
+def _wall_of_points(walls: list[_Wall], idx: list, n: int, tol: float, xyz: np.ndarray) -> np.ndarray:
+    """(n,) int: the index of a wall whose thickness (between its faces, ``tol`` out, along its
+    run, within its storey) holds each point, -1 for none."""
+    out = np.full(n, -1, np.int64)
+    for k, (w, ii) in enumerate(zip(walls, idx)):
+        rel = xyz[ii, :2] - w.p0
+        v, z = rel @ w.n, xyz[ii, 2]
+        out[ii[(v <= w.faces[0] + tol) & (v >= w.faces[1] - tol) & (z >= w.floor_z) & (z <= w.ceiling_z)]] = k
+    return out
+
+
+def _behind_wall(walls: list[_Wall], wall_of: np.ndarray, S: np.ndarray, cell_xy: np.ndarray,
+                 tol: float) -> np.ndarray:
+    """(m,) bool: the ray from scanner ``S`` through an occluder inside wall ``wall_of`` (-1:
+    none) reaches its face cell (``cell_xy``) only through that wall: scanner and cell lie on
+    its two sides, each clear of its thickness."""
+    out = np.zeros(len(wall_of), bool)
+    for k in np.unique(wall_of[wall_of >= 0]):
+        sel = wall_of == k
+        w2 = walls[int(k)]
+        mid, half = (w2.faces[0] + w2.faces[1]) / 2, (w2.faces[0] - w2.faces[1]) / 2 + tol
+        ds = float((S[:2] - w2.p0) @ w2.n) - mid
+        dc = (cell_xy[sel] - w2.p0) @ w2.n - mid
+        out[sel] = (abs(ds) > half) & (np.abs(dc) > half) & (np.sign(dc) != np.sign(ds))
+    return out
+
+
 def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, tol: float,
-              p: OpeningParams) -> None:
-    """Fill ``through`` / ``shadow`` of each wall face from the scanners that see it."""
+              p: OpeningParams, wall_of: Optional[np.ndarray] = None) -> None:
+    """Fill ``through`` / ``shadow`` of each wall face from the scanners that see it.
+
+    A point in front of a face shadows the cell its ray would reach; when the ray reaches
+    that cell only through another wall (``wall_of``: the wall holding each point) the
+    scanner stands behind that wall and does not see the face there at all: such cells go
+    to ``behind``, not ``shadow`` (see :func:`_judge`)."""
     k_n = len(scanners)
     per_scan = np.bincount(scan_index[(scan_index >= 0) & (scan_index < k_n)], minlength=k_n)
     need: dict[int, list] = {}
@@ -273,6 +307,7 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
     for k, pairs in need.items():
         sel_k = order[starts[k]:starts[k + 1]]
         pts = xyz[sel_k]
+        wall_k = np.full(len(sel_k), -1, np.int64) if wall_of is None else wall_of[sel_k]
         S = np.asarray(scanners[k], np.float64)
         az = np.arctan2(pts[:, 1] - S[1], pts[:, 0] - S[0])
         o = np.argsort(az)
@@ -314,7 +349,14 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
                     + np.clip(((zc[ok] - w.floor_z) / c).astype(np.int64), 0, nz - 1))
             is_thr = thr[m][ok]
             dd.through[s] += np.bincount(flat[is_thr], minlength=nu * nz).reshape(nu, nz)
-            dd.shadow[s] += np.bincount(flat[~is_thr], minlength=nu * nz).reshape(nu, nz)
+            shade = ~is_thr
+            other = shade & (wall_k[sel][m][ok] >= 0) & (wall_k[sel][m][ok] != wi)
+            if other.any():
+                cell_xy = w.p0 + np.outer(uc[ok][other], w.d) + w.n * vf
+                hid = np.flatnonzero(other)[_behind_wall(walls, wall_k[sel][m][ok][other], S, cell_xy, tol)]
+                shade[hid] = False
+                dd.behind[s] += np.bincount(flat[hid], minlength=nu * nz).reshape(nu, nz)
+            dd.shadow[s] += np.bincount(flat[shade], minlength=nu * nz).reshape(nu, nz)
             dd.rays = True
 
 
@@ -441,7 +483,15 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     seen = near_points(dd.through[0][cells] + dd.through[1][cells])
     f_through = float(seen.mean())
     reached = seen | near_points(dd.inside[cells])  # a leaf, glazing or reveal was hit there
-    f_occ = float((near_points(dd.shadow[0][cells] + dd.shadow[1][cells]) & ~reached).mean())
+    shade = dd.shadow[0][cells] + dd.shadow[1][cells]
+    if kind == "opening":
+        # a scanner behind another wall does not see the face: no shadow on a door or window
+        # there (the Duplex's glazed terrace door whose jamb meets the partition between the
+        # living room and the foyer read 41 % shadowed by that partition's far face, seen
+        # from the foyer); a wide floor-to-ceiling "opening" gets no such pass (below): the
+        # walls' shadows still tell it from the gap a model leaves beside a stair's void
+        shade = shade + dd.behind[0][cells] + dd.behind[1][cells]
+    f_occ = float((near_points(shade) & ~reached).mean())
     f_front = max([float(near_points(dd.front[s][cells]).mean()) for s in _inner_faces(obs, a, b, outer)],
                   default=0.0)
     n_beyond = int(sum(dd.front[s][cells].sum() for s in outer)) + int(dd.through[:, a:b, lo:hi].sum())
@@ -640,7 +690,8 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
     n_scans = 0 if scanners is None else len(scanners)
     data = [_analyse(w, ii, xyz, normals, scan_index, n_scans, tol, p) for w, ii in zip(frames, idx)]
     if scanners is not None and n_scans:
-        _ray_test(frames, data, xyz, scan_index, scanners, tol, p)
+        _ray_test(frames, data, xyz, scan_index, scanners, tol, p,
+                  _wall_of_points(frames, idx, len(xyz), tol, xyz))
     out: list[Shape] = []
     count = {"door": 0, "window": 0}
     for w, dd in zip(frames, data):
