@@ -62,7 +62,7 @@ from ..segmentation.params import PreprocessParams
 from .geometry import box_of
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
-from .passages import doorway_tops, wide_passages
+from .passages import doorway_tops, enclosed_pockets, wide_passages
 from .place import (StoreyFrame, detect_levels, given_frame, histogram_peaks, paired_faces, storey_chunks,
                     storey_frame)
 from .roof import roof_planes, slope_spaces
@@ -439,6 +439,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                                          type=ShapeType.WALL, terminal=True)
     doorway_tops(shapes, types, lowest, X, Y, params, spacing, margin)
     wide_passages(shapes, types, params)
+    enclosed_pockets(shapes, types, params)
     _open_voids(shapes, types, xyz, normals, frame, params)
     return [shapes[key] for key in sorted(shapes)]
 

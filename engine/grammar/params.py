@@ -259,6 +259,11 @@ class ManhattanParams:
     """A storey whose upper half holds this many times more sloped points than horizontal
     points at its ceiling levels has a sloped top (an attic): its roof undersides stand for the
     ceiling."""
+    pocket_width: Metres = 1.0
+    """An exterior cuboid on the floor at most this wide (wider than a wall), with some floor
+    seen, closed all round by walls and rooms and open to a room, is part of that room: its
+    ceiling fell between a far scan's lines (:func:`.passages.enclosed_pockets`); 0 turns it
+    off, metres."""
     min_passage_width: Metres = 2.0
     """A thin unseen cuboid with floor under it between two interiors, at least this long, is a
     wide opening under a beam or lintel that joins them (narrower: a door); 0 turns it off."""

@@ -1,6 +1,7 @@
-"""Thin cuboids between rooms after the classification (docs/method.md §2): doorways whose
-top only the ceiling's noise made look seen (:func:`doorway_tops`), and wide passages under a
-beam or a lintel that join two parts of an open plan (:func:`wide_passages`). Both change
+"""Cuboids between rooms after the classification (docs/method.md §2): doorways whose top
+only the ceiling's noise made look seen (:func:`doorway_tops`), wide passages under a beam or
+a lintel that join two parts of an open plan (:func:`wide_passages`), and narrow pockets of a
+room whose ceiling fell between a far scan's lines (:func:`enclosed_pockets`). They change
 ``shapes`` / ``types`` of :func:`.manhattan.place_storey` in place."""
 from __future__ import annotations
 
@@ -10,7 +11,10 @@ from ..model import ShapeType
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams
 
-__all__ = ["doorway_tops", "wide_passages"]
+__all__ = ["doorway_tops", "wide_passages", "enclosed_pockets"]
+
+_SIDES = ((2, 0, -1), (3, 1, 0), (4, 0, 1), (5, -1, 0))
+"""Side faces of a cuboid: (face index, di, dj) of the neighbour across it."""
 
 
 def doorway_tops(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndarray, Y: np.ndarray,
@@ -89,3 +93,64 @@ def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams) -> N
             f"(IPoF(bottom)={s.support['ipof_bottom']:.2f}), no wall -> interior, open to {shapes[nb[wide]].id}",
             type=ShapeType.INTERIOR, terminal=False,
             attributes={**s.attributes, "open_face": faces[wide]})
+
+
+def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -> None:
+    """Narrow parts of a room whose ceiling no scan line crossed, in place (issue 19).
+
+    An exterior cuboid on the floor, wider than a wall but at most ``pocket_width`` across,
+    with some floor seen (IPoF(bottom) > ``min_room_evidence``; a stair's void may take the
+    rest) and nothing interior above it, is interior when it is closed all round — on every
+    side a wall is seen in part (IPoF > ``min_room_evidence``: a far wall beside a void is
+    seen sparsely too) or an interior, a wall or another such cuboid touches it, or a gap in a
+    wall line (an exterior cuboid no thicker than a wall) that is closed so itself — and open
+    to a room (an unseen face, IPoF < τ, toward an interior cuboid). The gaps stay as they are. Far from a terrestrial scanner a
+    ceiling is seen as lines tens of centimetres apart (0.6 m over the Duplex's hallways
+    beside the stair voids, seen from the other end): a 0.6 m strip between two lines has no
+    ceiling point, and the strip between the hallway and the bedroom's wall was exterior —
+    a 0.7 m "wall" with the bedroom's door in it leading outside. The outside is not closed
+    by walls and rooms; a courtyard or a light well is wider; a shaft is not open to a room.
+    Those parts get ``attributes["ceiling_seen"] = False`` (lower confidence)."""
+    if params.pocket_width <= 0:
+        return
+    nx, ny, nz = types.shape
+    tau, t_max = params.tau, params.max_wall_thickness
+    cand, gaps = set(), set()
+    for i in range(nx):
+        for j in range(ny):
+            s = shapes[(i, j, 0)]
+            if types[i, j, 0] != ShapeType.EXTERIOR or any(types[i, j, k] == ShapeType.INTERIOR for k in range(1, nz)):
+                continue
+            size = np.ptp(s.geometry.bounds[:, :2], axis=0)
+            if size.min() <= t_max:
+                gaps.add((i, j))  # a gap in a wall line: closed only if what lies beyond it is
+            elif size.min() <= params.pocket_width and s.support.get("ipof_bottom", 0.0) > params.min_room_evidence:
+                cand.add((i, j))
+    closed = (ShapeType.INTERIOR, ShapeType.WALL)
+    inside = cand | gaps
+    changed = True
+    while changed:  # a cuboid with a side open to the outside drops out, until none does
+        changed = False
+        for (i, j) in sorted(inside):
+            sup = shapes[(i, j, 0)].support
+            for f, di, dj in _SIDES:
+                q = (i + di, j + dj)
+                if sup.get(f"ipof_f{f}", 0.0) > params.min_room_evidence or q in inside or \
+                        (0 <= q[0] < nx and 0 <= q[1] < ny and types[q[0], q[1], 0] in closed):
+                    continue
+                inside.discard((i, j))
+                changed = True
+                break
+    cand &= inside
+    for (i, j) in sorted(cand):
+        s = shapes[(i, j, 0)]
+        rooms = [f for f, di, dj in _SIDES if s.support.get(f"ipof_f{f}", 0.0) < tau
+                 and 0 <= i + di < nx and 0 <= j + dj < ny and types[i + di, j + dj, 0] == ShapeType.INTERIOR]
+        if not rooms:
+            continue
+        types[i, j, 0] = ShapeType.INTERIOR
+        shapes[(i, j, 0)] = s.logged(
+            f"classify: {float(np.ptp(s.geometry.bounds[:, :2], axis=0).min()):.2f} m wide, floor seen "
+            f"(IPoF(bottom)={s.support.get('ipof_bottom', 0.0):.2f}), closed by walls and rooms, open to a room "
+            f"(face {rooms[0]}), ceiling unseen -> interior (lower confidence)",
+            type=ShapeType.INTERIOR, terminal=False, attributes={**s.attributes, "ceiling_seen": False})

@@ -217,6 +217,20 @@ def test_a_partition_seen_from_the_room_behind_it_casts_no_shadow_on_a_door(resu
 
 
 @pytest.mark.slow
+def test_a_hallway_strip_between_a_far_scans_lines_is_the_hallways(results):
+    """The Duplex, TLS, seed 3: the west hallway's ceiling beside the stair void is seen from
+    its far end as lines 0.6 m apart; the 0.6 m strip between the last two (half of it over
+    the void) had no ceiling point and was exterior, so the bedroom's door stood in a 0.7 m
+    "wall" and led outside (Bedroom 2 - exterior instead of Bedroom 2 - Hallway). The strip,
+    closed by walls and open to the hallway, is the hallway's now."""
+    sc, m, r = _run(results, "duplex", "tls", 3)
+    names = {s.id: s.name + ("W" if s.bounds[0, 0] < 3.0 else "E") for s in sc.truth.spaces}
+    edges = [{names.get(a, a), names.get(b, b)} for a, b in r["connectivity"]["missing"] + r["connectivity"]["extra"]]
+    assert {"Bedroom 2W", "HallwayW"} not in edges and {"Bedroom 2W", "exterior_s2"} not in edges, edges
+    assert r["spaces"]["mean_iou"] >= 0.955, r["spaces"]["mean_iou"]  # measured 0.958 (0.950 before)
+
+
+@pytest.mark.slow
 def test_a_dense_scan_keeps_the_attic_storey(results):
     """FZK-Haus, TLS, 1M points, seed 10: the attic's ridge strip holds 1.5 m² in σ-cells at this
     density (σ 4 cm), under the 2 m² a level needs, and the grammar dropped the storey that the

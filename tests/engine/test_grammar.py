@@ -369,6 +369,36 @@ def test_wide_passage_joins_rooms(length, bottom, face, expect):
     assert shapes[(0, 1, 0)].type == E
 
 
+@pytest.mark.parametrize("width, bottom, ends, room, expect", [
+    (0.6, 0.18, 0.27, ShapeType.INTERIOR, ShapeType.INTERIOR),  # Duplex TLS: hallway strip beside the stair void
+    (0.6, 0.18, 0.0, ShapeType.INTERIOR, ShapeType.EXTERIOR),   # an end open to the outside (glazing, a terrace)
+    (0.6, 0.05, 0.27, ShapeType.INTERIOR, ShapeType.EXTERIOR),  # no floor seen under it
+    (1.5, 0.18, 0.27, ShapeType.INTERIOR, ShapeType.EXTERIOR),  # wider than a pocket: a light well, a yard
+    (0.6, 0.18, 0.27, ShapeType.EXTERIOR, ShapeType.EXTERIOR),  # open to no room: a shaft
+])
+def test_a_narrow_pocket_closed_by_walls_and_open_to_a_room_is_part_of_it(width, bottom, ends, room, expect):
+    """A strip on the floor whose ceiling no scan line crossed (wall | strip | room along y, its
+    two ends on the grid's edge with faces seen ``ends``) is the room's when walls and rooms
+    close it and it opens to a room; else it stays exterior."""
+    from engine.grammar.geometry import box_of
+    from engine.grammar.passages import enclosed_pockets
+    from engine.model import Shape
+
+    ys = np.cumsum([0.0, 0.12, width, 4.0])
+    kinds = (ShapeType.WALL, ShapeType.EXTERIOR, room)
+    shapes, types = {}, np.empty((1, 3, 1), dtype=object)
+    for j, t in enumerate(kinds):
+        sup = {"ipof_bottom": bottom, "ipof_top": 0.02, "ipof_f2": 0.0, "ipof_f4": 0.0, "ipof_f3": ends,
+               "ipof_f5": ends} if j == 1 else {"ipof_bottom": 0.9, "ipof_top": 0.9}
+        shapes[(0, j, 0)] = Shape(id=f"c{j}", type=t, geometry=box_of((0, ys[j], 0), (2.0, ys[j + 1], 2.6)),
+                                  grid=(0, j, 0), support=sup, attributes={"thin_axis": 1 if j == 0 else None})
+        types[0, j, 0] = t
+    enclosed_pockets(shapes, types, ManhattanParams())
+    assert shapes[(0, 1, 0)].type == expect and types[0, 1, 0] == expect
+    if expect == ShapeType.INTERIOR:
+        assert shapes[(0, 1, 0)].attributes["ceiling_seen"] is False and "closed by walls" in shapes[(0, 1, 0)].log[-1]
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_attic_needs_the_flat_ceilings_to_be_few(seed):
     """A storey is an attic (its sloped points copied onto its top as ceiling) only when they
