@@ -104,7 +104,9 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -
     side a wall is seen in part (IPoF > ``min_room_evidence``: a far wall beside a void is
     seen sparsely too) or an interior, a wall or another such cuboid touches it, or a gap in a
     wall line (an exterior cuboid no thicker than a wall) that is closed so itself — and open
-    to a room (an unseen face, IPoF < τ, toward an interior cuboid). The gaps stay as they are. Far from a terrestrial scanner a
+    to a room (an unseen face, IPoF < τ, toward an interior cuboid, or toward a sliver no thicker
+    than 2 ``shape_buffer`` — two cuts of one surface — with the room beyond it; the sliver
+    joins the pocket). Other gaps stay as they are. Far from a terrestrial scanner a
     ceiling is seen as lines tens of centimetres apart (0.6 m over the Duplex's hallways
     beside the stair voids, seen from the other end): a 0.6 m strip between two lines has no
     ceiling point, and the strip between the hallway and the bedroom's wall was exterior —
@@ -127,30 +129,48 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -
             elif size.min() <= params.pocket_width and s.support.get("ipof_bottom", 0.0) > params.min_room_evidence:
                 cand.add((i, j))
     closed = (ShapeType.INTERIOR, ShapeType.WALL)
+    seen = lambda q, f: q in shapes and shapes[q].support.get(f"ipof_f{f}", 0.0) > params.min_room_evidence
     inside = cand | gaps
     changed = True
     while changed:  # a cuboid with a side open to the outside drops out, until none does
         changed = False
         for (i, j) in sorted(inside):
-            sup = shapes[(i, j, 0)].support
+            size = np.ptp(shapes[(i, j, 0)].geometry.bounds[:, :2], axis=0)
             for f, di, dj in _SIDES:
                 q = (i + di, j + dj)
-                if sup.get(f"ipof_f{f}", 0.0) > params.min_room_evidence or q in inside or \
+                if seen((i, j, 0), f) or q in inside or \
                         (0 <= q[0] < nx and 0 <= q[1] < ny and types[q[0], q[1], 0] in closed):
+                    continue
+                # a gap's end too short to measure (a sliver between two close cuts): the wall
+                # seen on that side of the cuboids across it runs on through it
+                across = [(i, j - 1, 0), (i, j + 1, 0)] if di else [(i - 1, j, 0), (i + 1, j, 0)]
+                if (i, j) in gaps and size[1 if di else 0] <= t_max and any(seen(a, f) for a in across):
                     continue
                 inside.discard((i, j))
                 changed = True
                 break
     cand &= inside
+    sliver = 2.0 * float(params.shape_buffer or 0.0)  # two cuts of one surface: thinner than any wall
     for (i, j) in sorted(cand):
         s = shapes[(i, j, 0)]
-        rooms = [f for f, di, dj in _SIDES if s.support.get(f"ipof_f{f}", 0.0) < tau
-                 and 0 <= i + di < nx and 0 <= j + dj < ny and types[i + di, j + dj, 0] == ShapeType.INTERIOR]
-        if not rooms:
+        via, room = [], None
+        for f, di, dj in _SIDES:  # a room across an unseen face, or across a sliver beyond it
+            q, path = (i + di, j + dj), []
+            if s.support.get(f"ipof_f{f}", 0.0) >= tau:
+                continue
+            if q in gaps & inside and float(np.ptp(shapes[q + (0,)].geometry.bounds[:, 0 if di else 1])) <= sliver \
+                    and shapes[q + (0,)].support.get(f"ipof_f{f}", 0.0) < tau:
+                path, q = [q], (q[0] + di, q[1] + dj)
+            if 0 <= q[0] < nx and 0 <= q[1] < ny and types[q[0], q[1], 0] == ShapeType.INTERIOR:
+                via, room = path, f
+                break
+        if room is None:
             continue
-        types[i, j, 0] = ShapeType.INTERIOR
-        shapes[(i, j, 0)] = s.logged(
-            f"classify: {float(np.ptp(s.geometry.bounds[:, :2], axis=0).min()):.2f} m wide, floor seen "
-            f"(IPoF(bottom)={s.support.get('ipof_bottom', 0.0):.2f}), closed by walls and rooms, open to a room "
-            f"(face {rooms[0]}), ceiling unseen -> interior (lower confidence)",
-            type=ShapeType.INTERIOR, terminal=False, attributes={**s.attributes, "ceiling_seen": False})
+        for q in [(i, j)] + via:
+            c = shapes[q + (0,)]
+            types[q[0], q[1], 0] = ShapeType.INTERIOR
+            shapes[q + (0,)] = c.logged(
+                f"classify: {float(np.ptp(s.geometry.bounds[:, :2], axis=0).min()):.2f} m wide pocket "
+                f"{s.id}, floor seen (IPoF(bottom)={s.support.get('ipof_bottom', 0.0):.2f}), closed by walls "
+                f"and rooms, open to a room (face {room}), ceiling unseen -> interior (lower confidence)",
+                type=ShapeType.INTERIOR, terminal=False, attributes={**c.attributes, "ceiling_seen": False})

@@ -399,6 +399,28 @@ def test_a_narrow_pocket_closed_by_walls_and_open_to_a_room_is_part_of_it(width,
         assert shapes[(0, 1, 0)].attributes["ceiling_seen"] is False and "closed by walls" in shapes[(0, 1, 0)].log[-1]
 
 
+@pytest.mark.parametrize("gap, expect", [(0.06, ShapeType.INTERIOR), (0.12, ShapeType.EXTERIOR)])
+def test_a_pocket_behind_a_sliver_joins_the_room_with_it(gap, expect):
+    """wall | pocket | gap | room along y: a 6 cm sliver (two cuts of one surface, thinner than
+    2 shape_buffer) between the pocket and the room joins with the pocket; a gap as thick as a
+    wall (a doorway) keeps the pocket out of the room beyond it."""
+    from engine.grammar.geometry import box_of
+    from engine.grammar.passages import enclosed_pockets
+    from engine.model import Shape
+
+    ys = np.cumsum([0.0, 0.12, 0.54, gap, 4.0])
+    kinds = (ShapeType.WALL, ShapeType.EXTERIOR, ShapeType.EXTERIOR, ShapeType.INTERIOR)
+    shapes, types = {}, np.empty((1, 4, 1), dtype=object)
+    for j, t in enumerate(kinds):
+        sup = {"ipof_bottom": 0.19 if j == 1 else (0.0 if j == 2 else 0.9), "ipof_top": 0.0 if j in (1, 2) else 0.9,
+               "ipof_f3": 0.3 if j == 1 else 0.0, "ipof_f5": 0.3 if j == 1 else 0.0}
+        shapes[(0, j, 0)] = Shape(id=f"c{j}", type=t, geometry=box_of((0, ys[j], 0), (2.0, ys[j + 1], 2.6)),
+                                  grid=(0, j, 0), support=sup, attributes={"thin_axis": 1 if j in (0, 2) else None})
+        types[0, j, 0] = t
+    enclosed_pockets(shapes, types, ManhattanParams(shape_buffer=0.05))
+    assert types[0, 1, 0] == expect and types[0, 2, 0] == expect
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_attic_needs_the_flat_ceilings_to_be_few(seed):
     """A storey is an attic (its sloped points copied onto its top as ceiling) only when they
