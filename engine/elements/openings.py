@@ -254,10 +254,10 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, 
                  fdev=np.where(edge[0], vl - v, np.where(edge[1], v - vr, 0.0))[either])
 
 
-def _wall_of_points(walls: list[_Wall], idx: list, n: int, tol: float, xyz: np.ndarray) -> np.ndarray:
+def _wall_of_points(walls: list[_Wall], idx: list, xyz: np.ndarray, tol: float) -> np.ndarray:
     """(n,) int: the index of a wall whose thickness (between its faces, ``tol`` out, along its
     run, within its storey) holds each point, -1 for none."""
-    out = np.full(n, -1, np.int64)
+    out = np.full(len(xyz), -1, np.int64)
     for k, (w, ii) in enumerate(zip(walls, idx)):
         rel = xyz[ii, :2] - w.p0
         v, z = rel @ w.n, xyz[ii, 2]
@@ -349,11 +349,11 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
                     + np.clip(((zc[ok] - w.floor_z) / c).astype(np.int64), 0, nz - 1))
             is_thr = thr[m][ok]
             dd.through[s] += np.bincount(flat[is_thr], minlength=nu * nz).reshape(nu, nz)
-            shade = ~is_thr
-            other = shade & (wall_k[sel][m][ok] >= 0) & (wall_k[sel][m][ok] != wi)
+            shade, wk = ~is_thr, wall_k[sel][m][ok]
+            other = shade & (wk >= 0) & (wk != wi)
             if other.any():
                 cell_xy = w.p0 + np.outer(uc[ok][other], w.d) + w.n * vf
-                hid = np.flatnonzero(other)[_behind_wall(walls, wall_k[sel][m][ok][other], S, cell_xy, tol)]
+                hid = np.flatnonzero(other)[_behind_wall(walls, wk[other], S, cell_xy, tol)]
                 shade[hid] = False
                 dd.behind[s] += np.bincount(flat[hid], minlength=nu * nz).reshape(nu, nz)
             dd.shadow[s] += np.bincount(flat[shade], minlength=nu * nz).reshape(nu, nz)
@@ -690,8 +690,7 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
     n_scans = 0 if scanners is None else len(scanners)
     data = [_analyse(w, ii, xyz, normals, scan_index, n_scans, tol, p) for w, ii in zip(frames, idx)]
     if scanners is not None and n_scans:
-        _ray_test(frames, data, xyz, scan_index, scanners, tol, p,
-                  _wall_of_points(frames, idx, len(xyz), tol, xyz))
+        _ray_test(frames, data, xyz, scan_index, scanners, tol, p, _wall_of_points(frames, idx, xyz, tol))
     out: list[Shape] = []
     count = {"door": 0, "window": 0}
     for w, dd in zip(frames, data):

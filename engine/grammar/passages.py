@@ -121,15 +121,20 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -
     for i in range(nx):
         for j in range(ny):
             s = shapes[(i, j, 0)]
-            if types[i, j, 0] != ShapeType.EXTERIOR or any(types[i, j, k] == ShapeType.INTERIOR for k in range(1, nz)):
+            if types[i, j, 0] != ShapeType.EXTERIOR or \
+                    any(types[i, j, k] == ShapeType.INTERIOR for k in range(1, nz)):
                 continue
             size = np.ptp(s.geometry.bounds[:, :2], axis=0)
             if size.min() <= t_max:
                 gaps.add((i, j))  # a gap in a wall line: closed only if what lies beyond it is
-            elif size.min() <= params.pocket_width and s.support.get("ipof_bottom", 0.0) > params.min_room_evidence:
+            elif size.min() <= params.pocket_width and \
+                    s.support.get("ipof_bottom", 0.0) > params.min_room_evidence:
                 cand.add((i, j))
     closed = (ShapeType.INTERIOR, ShapeType.WALL)
-    seen = lambda q, f: q in shapes and shapes[q].support.get(f"ipof_f{f}", 0.0) > params.min_room_evidence
+
+    def seen(q, f):  # a wall seen in part on face f of cuboid q
+        return q in shapes and shapes[q].support.get(f"ipof_f{f}", 0.0) > params.min_room_evidence
+
     inside = cand | gaps
     changed = True
     while changed:  # a cuboid with a side open to the outside drops out, until none does
@@ -149,7 +154,7 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -
                 inside.discard((i, j))
                 changed = True
                 break
-    cand &= inside
+    cand, gaps = cand & inside, gaps & inside
     sliver = 2.0 * float(params.shape_buffer or 0.0)  # two cuts of one surface: thinner than any wall
     for (i, j) in sorted(cand):
         s = shapes[(i, j, 0)]
@@ -158,7 +163,7 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -
             q, path = (i + di, j + dj), []
             if s.support.get(f"ipof_f{f}", 0.0) >= tau:
                 continue
-            if q in gaps & inside and float(np.ptp(shapes[q + (0,)].geometry.bounds[:, 0 if di else 1])) <= sliver \
+            if q in gaps and float(np.ptp(shapes[q + (0,)].geometry.bounds[:, 0 if di else 1])) <= sliver \
                     and shapes[q + (0,)].support.get(f"ipof_f{f}", 0.0) < tau:
                 path, q = [q], (q[0] + di, q[1] + dj)
             if 0 <= q[0] < nx and 0 <= q[1] < ny and types[q[0], q[1], 0] == ShapeType.INTERIOR:

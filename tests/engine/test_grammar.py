@@ -370,8 +370,8 @@ def test_wide_passage_joins_rooms(length, bottom, face, expect):
 
 
 @pytest.mark.parametrize("width, bottom, ends, room, expect", [
-    (0.6, 0.18, 0.27, ShapeType.INTERIOR, ShapeType.INTERIOR),  # Duplex TLS: hallway strip beside the stair void
-    (0.6, 0.18, 0.0, ShapeType.INTERIOR, ShapeType.EXTERIOR),   # an end open to the outside (glazing, a terrace)
+    (0.6, 0.18, 0.27, ShapeType.INTERIOR, ShapeType.INTERIOR),  # Duplex TLS: strip beside a stair void
+    (0.6, 0.18, 0.0, ShapeType.INTERIOR, ShapeType.EXTERIOR),   # an end open to the outside
     (0.6, 0.05, 0.27, ShapeType.INTERIOR, ShapeType.EXTERIOR),  # no floor seen under it
     (1.5, 0.18, 0.27, ShapeType.INTERIOR, ShapeType.EXTERIOR),  # wider than a pocket: a light well, a yard
     (0.6, 0.18, 0.27, ShapeType.EXTERIOR, ShapeType.EXTERIOR),  # open to no room: a shaft
@@ -391,12 +391,14 @@ def test_a_narrow_pocket_closed_by_walls_and_open_to_a_room_is_part_of_it(width,
         sup = {"ipof_bottom": bottom, "ipof_top": 0.02, "ipof_f2": 0.0, "ipof_f4": 0.0, "ipof_f3": ends,
                "ipof_f5": ends} if j == 1 else {"ipof_bottom": 0.9, "ipof_top": 0.9}
         shapes[(0, j, 0)] = Shape(id=f"c{j}", type=t, geometry=box_of((0, ys[j], 0), (2.0, ys[j + 1], 2.6)),
-                                  grid=(0, j, 0), support=sup, attributes={"thin_axis": 1 if j == 0 else None})
+                                  grid=(0, j, 0), support=sup,
+                                  attributes={"thin_axis": 1 if j == 0 else None})
         types[0, j, 0] = t
     enclosed_pockets(shapes, types, ManhattanParams())
     assert shapes[(0, 1, 0)].type == expect and types[0, 1, 0] == expect
     if expect == ShapeType.INTERIOR:
-        assert shapes[(0, 1, 0)].attributes["ceiling_seen"] is False and "closed by walls" in shapes[(0, 1, 0)].log[-1]
+        strip = shapes[(0, 1, 0)]
+        assert strip.attributes["ceiling_seen"] is False and "closed by walls" in strip.log[-1]
 
 
 @pytest.mark.parametrize("gap, expect", [(0.06, ShapeType.INTERIOR), (0.12, ShapeType.EXTERIOR)])
@@ -412,10 +414,12 @@ def test_a_pocket_behind_a_sliver_joins_the_room_with_it(gap, expect):
     kinds = (ShapeType.WALL, ShapeType.EXTERIOR, ShapeType.EXTERIOR, ShapeType.INTERIOR)
     shapes, types = {}, np.empty((1, 4, 1), dtype=object)
     for j, t in enumerate(kinds):
-        sup = {"ipof_bottom": 0.19 if j == 1 else (0.0 if j == 2 else 0.9), "ipof_top": 0.0 if j in (1, 2) else 0.9,
+        sup = {"ipof_bottom": 0.19 if j == 1 else (0.0 if j == 2 else 0.9),
+               "ipof_top": 0.0 if j in (1, 2) else 0.9,
                "ipof_f3": 0.3 if j == 1 else 0.0, "ipof_f5": 0.3 if j == 1 else 0.0}
         shapes[(0, j, 0)] = Shape(id=f"c{j}", type=t, geometry=box_of((0, ys[j], 0), (2.0, ys[j + 1], 2.6)),
-                                  grid=(0, j, 0), support=sup, attributes={"thin_axis": 1 if j in (0, 2) else None})
+                                  grid=(0, j, 0), support=sup,
+                                  attributes={"thin_axis": 1 if j in (0, 2) else None})
         types[0, j, 0] = t
     enclosed_pockets(shapes, types, ManhattanParams(shape_buffer=0.05))
     assert types[0, 1, 0] == expect and types[0, 2, 0] == expect

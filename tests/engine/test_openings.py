@@ -194,11 +194,14 @@ def _partition_beside_door(foyer_scanners: bool):
     fp = [a - n * t_p / 2, b - n * t_p / 2, b + n * t_p / 2, a + n * t_p / 2]
     part = Shape("w_part", ShapeType.WALL, Polyhedron.prism(fp, FLOOR, FLOOR + H), storey=0, terminal=True,
                  attributes={"thickness": t_p, "height": H, "external": False, "thickness_measured": True,
-                             "axis_line": [a.tolist(), b.tolist()], "sides": ["foyer", "room_a"], "joins": []})
+                             "axis_line": [a.tolist(), b.tolist()], "sides": ["foyer", "room_a"],
+                             "joins": []})
     walls = [_wall("w_ext", 0.0, 0.0, L, T_EXT, ("room_a", None), True), part]
-    scanners = [(4.6, 1.0, 1.5)] + ([(1.2, 0.8, 1.5), (1.5, 1.5, 1.5), (0.6, 1.2, 1.5)] if foyer_scanners else [])
+    foyer = [(1.2, 0.8, 1.5), (1.5, 1.5, 1.5), (0.6, 1.2, 1.5)] if foyer_scanners else []
+    scanners = [(4.6, 1.0, 1.5)] + foyer
     xyz, idx, pos = _scan(boxes, scanners, glass=DOOR)
-    return detect_openings(walls, [STOREY], xyz, scan_index=idx, scanner_positions=pos, exterior_ids={0: "out"})
+    return detect_openings(walls, [STOREY], xyz, scan_index=idx, scanner_positions=pos,
+                           exterior_ids={0: "out"})
 
 
 def test_a_partition_seen_from_the_room_behind_it_casts_no_shadow_on_a_door():
