@@ -12,7 +12,9 @@ The spaces of a storey are footprints in plan; a wall is what lies between them.
 3. what is left of an edge, facing no space within ``max_thickness``, is an exterior wall
    piece of ``exterior_thickness`` outside the face;
 4. collinear pieces of about the same thickness and kind that overlap or are separated by
-   no more than a junction (``max_thickness``) are one run;
+   no more than a junction (``max_thickness``) are one run; an interior run lying within a
+   longer one between the same two rooms (a room's footprint reaching into its wall along a
+   doorway) is dropped;
 5. run ends meet: where the axes of two runs cross near an end, the runs join (an L corner
    ``ATSTART``/``ATEND`` to ``ATSTART``/``ATEND``, a T junction to ``ATPATH``); at a corner
    one run goes through to the other's far face and the other stops at its near face (a
@@ -364,6 +366,37 @@ def _runs_of(pieces: list, storey: int, prm: WallRunParams, breaks=()) -> list:
     return runs
 
 
+def _without_doorway_reaches(runs: list, prm: WallRunParams) -> list:
+    """The runs less the interior ones between two rooms that lie within another run between
+    the same rooms (parallel within ``parallel_angle``, axis inside its thickness over at least
+    half its length): where the rooms' footprints reach into their wall along a doorway, the
+    piece there is thinner (or turned) beyond what one run takes, and made a second run over
+    the same stretch (hexagon_hall: two runs for one slanted wall, its door found twice)."""
+    cos_par = math.cos(prm.parallel_angle)
+    order = sorted(range(len(runs)), key=lambda k: -runs[k].length)
+    kept = []
+    for k in order:
+        r = runs[k]
+        rooms = {frozenset(s[2:]) for s in r.spans}
+        inside = False
+        if not r.external and len(rooms) == 1:
+            for q in kept:
+                o = runs[q]
+                if o.external or {frozenset(s[2:]) for s in o.spans} != rooms or \
+                        abs(float(o.direction @ r.direction)) < cos_par:
+                    continue
+                d, n = o.direction, np.array([-o.direction[1], o.direction[0]])
+                t = np.linspace(0.0, 1.0, 21)
+                pts = r.a[None] + (r.b - r.a)[None] * t[:, None] - o.a[None]
+                u, v = pts @ d, pts @ n
+                if np.mean((u >= 0) & (u <= o.length) & (np.abs(v) <= o.thickness / 2)) >= 0.5:
+                    inside = True
+                    break
+        if not inside:
+            kept.append(k)
+    return [runs[k] for k in sorted(kept)]
+
+
 def _thick(chain) -> float:
     w = np.array([x[2] - x[1] for x in chain])
     t = np.array([x[3].thickness for x in chain])
@@ -468,6 +501,7 @@ def wall_runs(footprints: dict, storey: int, prm: WallRunParams = WallRunParams(
     """
     pieces, open_pairs = _pieces(footprints, prm, measured, breaks, solid, faces)
     runs = [r for r in _runs_of(pieces, storey, prm, breaks) if r.length >= prm.min_length]
+    runs = _without_doorway_reaches(runs, prm)
     _join(runs, prm)
     # meeting ends can shorten a run below the minimum: drop it, and the joins to it
     keep = [i for i, r in enumerate(runs) if r.length >= prm.min_length]

@@ -242,6 +242,20 @@ def _runs(fps, **kw):
     return wall_runs({k: Polygon(v) for k, v in fps.items()}, 0, WallRunParams(), **kw)
 
 
+def test_a_room_reaching_into_its_wall_along_a_doorway_gives_one_wall():
+    """Two rooms either side of a 0.2 m wall; along 2.85 m of it (a doorway's stretch) one
+    room's footprint reaches 7 cm into the wall: that piece is 0.13 m thick, beyond the runs'
+    thickness tolerance, and made a second run over the same stretch, bridged by the wall's
+    own run (hexagon_hall mobile 3: its door found in both). One run, 0.2 m thick."""
+    fps = {"a": [(-4, 0), (-0.1, 0), (-0.1, 0.5), (-0.03, 0.5), (-0.03, 3.35), (-0.1, 3.35), (-0.1, 3.8),
+                 (-4, 3.8)],
+           "b": _rect(0.1, 0, 4, 3.8)}
+    runs, _ = _runs(fps)
+    inner = [r for r in runs if not r.external]
+    assert len(inner) == 1, [(r.thickness, r.length) for r in inner]
+    assert inner[0].thickness == pytest.approx(0.2, abs=0.01) and inner[0].length == pytest.approx(3.8, abs=0.1)
+
+
 def test_a_floor_to_ceiling_break_ends_the_wall_and_the_rooms_meet_there():
     """An 8 m partition interrupted over x 3–5.5 (a gap from floor to ceiling): two runs that
     stop at the break, and the two rooms meet without a wall there (an open plan)."""
