@@ -373,21 +373,19 @@ def _without_doorway_reaches(runs: list, prm: WallRunParams) -> list:
     piece there is thinner (or turned) beyond what one run takes, and made a second run over
     the same stretch (hexagon_hall: two runs for one slanted wall, its door found twice)."""
     cos_par = math.cos(prm.parallel_angle)
-    order = sorted(range(len(runs)), key=lambda k: -runs[k].length)
+    rooms = [{frozenset(s[2:]) for s in r.spans} for r in runs]  # once per run, not per pair
+    t = np.linspace(0.0, 1.0, 21)[:, None]  # points along a run's axis
     kept = []
-    for k in order:
+    for k in sorted(range(len(runs)), key=lambda k: -runs[k].length):
         r = runs[k]
-        rooms = {frozenset(s[2:]) for s in r.spans}
         inside = False
-        if not r.external and len(rooms) == 1:
+        if not r.external and len(rooms[k]) == 1:
             for q in kept:
                 o = runs[q]
-                if o.external or {frozenset(s[2:]) for s in o.spans} != rooms or \
-                        abs(float(o.direction @ r.direction)) < cos_par:
+                if o.external or rooms[q] != rooms[k] or abs(float(o.direction @ r.direction)) < cos_par:
                     continue
                 d, n = o.direction, np.array([-o.direction[1], o.direction[0]])
-                t = np.linspace(0.0, 1.0, 21)
-                pts = r.a[None] + (r.b - r.a)[None] * t[:, None] - o.a[None]
+                pts = r.a[None] + (r.b - r.a)[None] * t - o.a[None]
                 u, v = pts @ d, pts @ n
                 if np.mean((u >= 0) & (u <= o.length) & (np.abs(v) <= o.thickness / 2)) >= 0.5:
                     inside = True
