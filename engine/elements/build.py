@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import logging
 import time
-from typing import Optional
+from typing import Mapping, Optional
 
 import numpy as np
 import shapely
@@ -210,8 +210,8 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
         grid = PointGrid(xyz_model)
         # exterior "doors" of an upper storey with nothing walkable beyond are windows
         lowest = min((float(st.floor_z) for st in base.storeys), default=None)
-        detected = elevated_doors(_detect(base_ext, first, xyz_model, cloud, prm), first, grid, prm.openings,
-                                  lowest)
+        detected = elevated_doors(_detect(base_ext, first, xyz_model, cloud, prm, footprints), first, grid,
+                                  prm.openings, lowest)
         # interior walls end at their doorless openings (an open plan, not a hole in a
         # wall); exterior walls measured through their openings get that thickness
         breaks, detected = _breaks(first, detected)
@@ -437,16 +437,27 @@ def _measured_exteriors(walls: list[Shape], openings: list[Shape], grid: PointGr
     return out
 
 
-def _detect(model: BuildingModel, walls: list[Shape], xyz: np.ndarray, cloud, prm: ElementsParams) -> list[Shape]:
+def _detect(model: BuildingModel, walls: list[Shape], xyz: np.ndarray, cloud, prm: ElementsParams,
+            footprints: Mapping[int, Mapping[str, object]]) -> list[Shape]:
     from .openings import detect_openings
 
     T = np.linalg.inv(model.transform)
     normals = None if cloud.normals is None else cloud.normals @ T[:3, :3].T
     sp = cloud.scanner_positions
+    pairs = None
     if sp is not None:
         sp = sp @ T[:3, :3].T + T[:3, 3]
+    elif prm.viewpoints is not None:  # no scanner positions: stand-ins in the rooms
+        from .viewpoints import occupancy, room_viewpoints, visible_pairs
+
+        t0 = time.perf_counter()
+        occ = occupancy(xyz, prm.viewpoints)
+        sp = room_viewpoints(footprints, model.storeys, occ, prm.viewpoints)
+        pairs = visible_pairs(xyz, sp, prm.viewpoints, occ)
+        log.info("openings: %d stand-in scanners in the rooms, %d lines of sight (%.1f s)", len(sp),
+                 len(pairs[0]), time.perf_counter() - t0)
     ext = {s.storey: s.id for s in model.of_type(ShapeType.EXTERIOR) if _made_here(s)}
-    found = detect_openings(walls, model.storeys, xyz, normals, cloud.scan_index, sp, prm.openings, ext)
+    found = detect_openings(walls, model.storeys, xyz, normals, cloud.scan_index, sp, prm.openings, ext, pairs)
     out = []
     for o in found:
         o = o.with_(attributes={**o.attributes, "detected": True})

@@ -190,10 +190,12 @@ class _Data:
     fdev: np.ndarray           # depth behind the face (face points; < 0 in front), metres
     scans: list                # per side: face points per scanner
     rays: bool = False
+    stand_in: bool = False     # the rays come from stand-in scanners (lines of sight), not a scan
 
 
-def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, tol: float,
+def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_count, tol: float,
              p: OpeningParams) -> _Data:
+    """The wall's rasters; ``scan_count`` (point indices → points per scanner) or None."""
     c = p.cell
     nu = max(1, int(math.ceil(w.length / c)))
     nz = max(1, int(math.ceil((w.ceiling_z - w.floor_z) / c)))
@@ -227,14 +229,7 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_index, n_scans: int, 
     def raster(mask):
         return np.bincount(flat[mask], minlength=nu * nz).reshape(nu, nz).astype(np.float64)
 
-    scans = []
-    for s in (0, 1):
-        if scan_index is not None and n_scans:
-            k = scan_index[idx[on[s]]]
-            k = k[(k >= 0) & (k < n_scans)]
-            scans.append(np.bincount(k, minlength=n_scans))
-        else:
-            scans.append(np.zeros(0, np.int64))
+    scans = [np.zeros(0, np.int64) if scan_count is None else scan_count(idx[on[s]]) for s in (0, 1)]
     # the reveals up to the ceiling: a head's soffit may stand less than edge_band under it
     either = edge[0] | edge[1] | (inside & (z > w.floor_z + p.edge_band) & inz)
     return _Data(face=np.stack([raster(on[0]), raster(on[1])]),
@@ -281,8 +276,17 @@ def _behind_wall(walls: list[_Wall], wall_of: np.ndarray, S: np.ndarray, cell_xy
     return out
 
 
+def _on_solid(solid: np.ndarray, u: np.ndarray, z: np.ndarray, w: _Wall, c: float) -> np.ndarray:
+    """(m,) bool: the face cells at ``u``, ``z`` (metres) within the wall hold points near."""
+    nu, nz = solid.shape
+    inw = (u >= 0) & (u < w.length) & (z >= w.floor_z) & (z < w.ceiling_z)
+    iu = np.clip((u / c).astype(np.int64), 0, nu - 1)
+    iz = np.clip(((z - w.floor_z) / c).astype(np.int64), 0, nz - 1)
+    return inw & solid[iu, iz]
+
+
 def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, tol: float,
-              p: OpeningParams, wall_of: Optional[np.ndarray] = None) -> None:
+              p: OpeningParams, wall_of: Optional[np.ndarray] = None, stand_in: bool = False) -> None:
     """Fill ``through`` / ``shadow`` of each wall face from the scanners that see it.
 
     A point in front of a face shadows the cell its ray would reach; when the ray reaches
@@ -304,6 +308,8 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
     order = np.argsort(scan_index, kind="stable")
     starts = np.searchsorted(scan_index[order], np.arange(k_n + 1))
     c = p.cell
+    solid = ([[near_points(dd.face[0]), near_points(dd.face[1]), near_points(dd.inside)] for dd in data]
+             if stand_in else None)
     for k, pairs in need.items():
         sel_k = order[starts[k]:starts[k + 1]]
         pts = xyz[sel_k]
@@ -336,6 +342,21 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
             rq = q[:, :2] - w.p0
             a_q, u_q = sg * (rq @ w.n), rq @ w.d
             thr = a_q < a_f - tol
+            if stand_in and thr.any():
+                # a line of sight, not a ray: it passes the faces and the thickness only where
+                # they have no points (a sparse face leaves gaps between voxels; a door's leaf)
+                i_t = np.flatnonzero(thr)
+                lam_f = (a_s - a_f) / (a_s - a_q[i_t])
+                uf = u_s + lam_f * (u_q[i_t] - u_s)
+                zf = S[2] + lam_f * (q[i_t, 2] - S[2])
+                lam_n = (a_s - a_n) / (a_s - a_q[i_t])
+                un = u_s + lam_n * (u_q[i_t] - u_s)
+                zn = S[2] + lam_n * (q[i_t, 2] - S[2])
+                lam_m = (a_s - (a_n + a_f) / 2) / (a_s - a_q[i_t])
+                um = u_s + lam_m * (u_q[i_t] - u_s)
+                zm = S[2] + lam_m * (q[i_t, 2] - S[2])
+                thr[i_t[_on_solid(solid[wi][1 - s], uf, zf, w, c) | _on_solid(solid[wi][s], un, zn, w, c)
+                        | _on_solid(solid[wi][2], um, zm, w, c)]] = False
             occ = (a_q > a_n + tol) & (a_q < min(a_s - 0.05, a_n + p.reach))  # furniture near the face
             m = thr | occ
             if not m.any():
@@ -450,6 +471,21 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     return el, er, eb, et, "window"
 
 
+def _banded(dd: _Data, a: int, b: int, lo: int, hi: int, rb: int, p: OpeningParams) -> bool:
+    """The rows ``lo:hi`` are sampled thinly along the face beside columns ``a:b`` too (within
+    ``band_flank`` either side: under ``band_share`` of the flanks' density over the wall's
+    height): a band between a scanner's lines (a mobile scanner's rings leave one at its
+    own height), not a hole."""
+    f = int(round(p.band_flank / p.cell))
+    nu, nz = dd.face.shape[1:]
+    cols = np.r_[max(0, a - f):a, b:min(nu, b + f)]
+    if len(cols) == 0 or hi <= lo:
+        return False
+    face = dd.face[:, cols].sum(axis=0)  # both faces
+    rows = face[:, lo:hi].mean()
+    return bool(rows < p.band_share * face[:, rb:max(rb + 1, nz - rb)].mean())
+
+
 def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -> Optional[dict]:
     """Measure a candidate, classify it and weigh its evidence; None when it is no opening.
 
@@ -481,6 +517,10 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     hi = int(np.clip(round((et - z0) / c) - 1, lo + 1, nz))
     cells = (slice(a, b), slice(lo, hi))
     seen = near_points(dd.through[0][cells] + dd.through[1][cells])
+    if dd.stand_in and _banded(dd, a, b, lo, hi, rb, p):
+        seen = np.zeros_like(seen)  # a stand-in's line through a thinly sampled band proves nothing
+    elif dd.stand_in and kind == "door":  # ... nor one between a leaf's points
+        seen &= ~near_points(dd.leaf[0][cells] + dd.leaf[1][cells])
     f_through = float(seen.mean())
     reached = seen | near_points(dd.inside[cells])  # a leaf, glazing or reveal was hit there
     shade = dd.shadow[0][cells] + dd.shadow[1][cells]
@@ -510,6 +550,8 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
                               for st in strips]))
     f_leaf = max([float(near_points(dd.leaf[s][cells]).mean()) for s in leaf_sides], default=0.0)
     occluded = f_occ >= p.max_occluded if dd.rays else f_front >= p.max_front_cover
+    if dd.stand_in:  # a stand-in's projection may exaggerate a shadow: the cover in front says so too
+        occluded = occluded and f_front >= p.max_front_cover
     # a half-shadowed door or window is no occlusion when rays pass through it and its jambs
     # and head stand inside the thickness: a shadow has neither (the shadowed share still
     # lowers the confidence); a wide "opening" may be a door joined to the shadow beside it
@@ -520,13 +562,22 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     if (w.external and f_through < p.min_seen_through and not _inner_faces(obs, a, b, outer)
             and any(obs[s][a:b].mean() > 0.5 for s in outer)):
         return None  # an exterior wall seen from outside only there: the scan is not where the model says
-    conf = 0.5 * min(1.0, f_through / (2 * p.min_seen_through)) * dd.rays
+    # a stand-in scanner's line through a gap in an interior wall proves less than a ray: the
+    # room beyond has its own scanners, and a strip the scan sampled thinly (a mobile
+    # scanner's lines) is a gap too; outside an exterior wall only openings let rays reach
+    w_through = 0.5
+    if dd.stand_in and not w.external:  # ... and only with a threshold or reveals to show for it
+        w_through = 0.25 * min(1.0, f_floor / p.cue_share + f_reveal / p.reveal_share)
+    conf = w_through * min(1.0, f_through / (2 * p.min_seen_through)) * dd.rays
     conf += 0.25 * both + 0.2 * (w.external and not occluded and side is None)
     conf += 0.15 * min(1.0, f_floor / p.cue_share) + 0.15 * min(1.0, f_reveal / p.reveal_share)
-    conf += 0.2 * min(1.0, n_beyond / 20.0) * (not dd.rays) * w.external + 0.45 * closed
+    conf += 0.2 * min(1.0, n_beyond / 20.0) * (not dd.rays or dd.stand_in) * w.external + 0.45 * closed
     # a shadow over a hole whose jambs and head stand inside the thickness hides part of a real
     # opening: it weighs only as far as the reveals leave the hole unconfirmed
-    conf = float(np.clip(conf - (f_occ * (1.0 - f_reveal) if dd.rays else f_front), 0.0, 1.0))
+    shade_cost = f_occ * (1.0 - f_reveal) if dd.rays else f_front
+    if dd.stand_in:
+        shade_cost = min(shade_cost, f_front)
+    conf = float(np.clip(conf - shade_cost, 0.0, 1.0))
     # a window framed by its reveals, unshadowed, with nothing inside its hole: the sky
     framed = (kind == "window" and w.external and not occluded and f_reveal >= p.framed_share
               and float((dd.inside[cells] > 0).mean()) < 0.5)
@@ -542,8 +593,9 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
 
 
 # ----------------------------------------------------------------------------- entry point
-def _checked(xyz, normals, scan_index, scanner_positions):
-    """Validated arrays (non-finite points dropped; the ray test needs both scanner arrays)."""
+def _checked(xyz, normals, scan_index, scanner_positions, view_pairs=None):
+    """Validated arrays (non-finite points dropped; the ray test needs the scanners and
+    ``scan_index`` or ``view_pairs``)."""
     xyz = np.asarray(xyz, dtype=np.float64)
     if xyz.ndim != 2 or xyz.shape[1] != 3:
         raise InputError(f"opening detection: xyz must be (n, 3), not {xyz.shape}")
@@ -551,9 +603,16 @@ def _checked(xyz, normals, scan_index, scanner_positions):
     normals = None if normals is None else np.asarray(normals, dtype=np.float64)
     if normals is not None and normals.shape != (n, 3):
         raise InputError(f"opening detection: normals must be ({n}, 3), not {normals.shape}")
-    if scan_index is None or scanner_positions is None:
-        scan_index = scanner_positions = None
+    if view_pairs is not None and scanner_positions is not None:
+        scan_index = None
+        scanner_positions = np.asarray(scanner_positions, dtype=np.float64).reshape(-1, 3)
+        view_pairs = tuple(np.asarray(a, np.int64).ravel() for a in view_pairs)
+        if len(view_pairs) != 2 or len(view_pairs[0]) != len(view_pairs[1]):
+            raise InputError("opening detection: view_pairs must be two arrays of one length")
+    elif scan_index is None or scanner_positions is None:
+        scan_index = scanner_positions = view_pairs = None
     else:
+        view_pairs = None
         scan_index = np.asarray(scan_index).astype(np.int64).ravel()
         scanner_positions = np.asarray(scanner_positions, dtype=np.float64).reshape(-1, 3)
         if len(scan_index) != n:
@@ -562,7 +621,11 @@ def _checked(xyz, normals, scan_index, scanner_positions):
     if not keep.all():
         xyz, normals = xyz[keep], None if normals is None else normals[keep]
         scan_index = None if scan_index is None else scan_index[keep]
-    return xyz, normals, scan_index, scanner_positions
+        if view_pairs is not None:
+            new = np.cumsum(keep) - 1
+            ok = keep[view_pairs[0]]
+            view_pairs = (new[view_pairs[0][ok]], view_pairs[1][ok])
+    return xyz, normals, scan_index, scanner_positions, view_pairs
 
 
 def _fit_faces(frames: list[_Wall], idx: list, xyz: np.ndarray, p: OpeningParams) -> float:
@@ -640,7 +703,7 @@ def _shape(w: _Wall, o: dict, oid: str, name: str, exterior: str) -> Shape:
 def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.ndarray,
                     normals: Optional[np.ndarray] = None, scan_index: Optional[np.ndarray] = None,
                     scanner_positions: Optional[np.ndarray] = None, params: OpeningParams = OpeningParams(),
-                    exterior_ids: Mapping[int, str] = {}) -> list[Shape]:
+                    exterior_ids: Mapping[int, str] = {}, view_pairs: Optional[tuple] = None) -> list[Shape]:
     """Openings (DOOR / WINDOW shapes per the shared conventions: parent wall, width, height, sill, kind,
     spaces from the wall's "sides" (None side -> exterior_ids[storey]), confidence, support) in the walls.
 
@@ -664,6 +727,9 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
     params : OpeningParams
     exterior_ids : mapping of storey index -> exterior shape id
         The space of a wall side without a space (default ``"exterior_s<k>"``).
+    view_pairs : (point index, scanner index) int arrays, optional
+        Instead of ``scan_index``: every scanner that sees each point (stand-in scanners,
+        :func:`engine.elements.viewpoints.visible_pairs`); needs ``scanner_positions``.
 
     Returns
     -------
@@ -676,7 +742,8 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
     InputError
         Malformed arrays or a wall without a usable axis or thickness.
     """
-    xyz, normals, scan_index, scanners = _checked(xyz, normals, scan_index, scanner_positions)
+    xyz, normals, scan_index, scanners, view_pairs = _checked(xyz, normals, scan_index, scanner_positions,
+                                                              view_pairs)
     frames = [_frame(w, storeys) for w in walls if w.type == ShapeType.WALL]
     for w in frames:  # a side facing the storey's exterior (named, or no space) is an outer side
         ext = exterior_ids.get(w.shape.storey, f"exterior_s{w.shape.storey}")
@@ -688,9 +755,32 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
     sigma = _fit_faces(frames, idx, xyz, p)
     tol = float(np.clip(p.face_sigmas * sigma, *p.face_tolerance))
     n_scans = 0 if scanners is None else len(scanners)
-    data = [_analyse(w, ii, xyz, normals, scan_index, n_scans, tol, p) for w, ii in zip(frames, idx)]
-    if scanners is not None and n_scans:
-        _ray_test(frames, data, xyz, scan_index, scanners, tol, p, _wall_of_points(frames, idx, xyz, tol))
+    scan_count = None
+    if n_scans and view_pairs is not None:  # stand-in scanners: a point may be seen from several
+        pp, vv = (np.asarray(a, np.int64) for a in view_pairs)
+        o = np.argsort(pp, kind="stable")
+        pp, vv = pp[o], vv[o]
+        starts = np.searchsorted(pp, np.arange(len(xyz) + 1))
+
+        def scan_count(ii):
+            lens = starts[ii + 1] - starts[ii]
+            at = np.repeat(starts[ii] - np.cumsum(lens) + lens, lens) + np.arange(int(lens.sum()))
+            return np.bincount(vv[at], minlength=n_scans)
+    elif n_scans:
+        pp = None
+
+        def scan_count(ii):
+            k = scan_index[ii]
+            return np.bincount(k[(k >= 0) & (k < n_scans)], minlength=n_scans)
+    data = [_analyse(w, ii, xyz, normals, scan_count, tol, p) for w, ii in zip(frames, idx)]
+    if scan_count is not None:
+        wall_of = _wall_of_points(frames, idx, xyz, tol)
+        if pp is None:
+            _ray_test(frames, data, xyz, scan_index, scanners, tol, p, wall_of)
+        else:
+            _ray_test(frames, data, xyz[pp], vv, scanners, tol, p, wall_of[pp], stand_in=True)
+            for dd in data:
+                dd.stand_in = dd.rays
     out: list[Shape] = []
     count = {"door": 0, "window": 0}
     for w, dd in zip(frames, data):

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 from ..quantities import Count, Factor, Flag, Metres, Radians, Ratio
 
-__all__ = ["OpeningParams", "WallRunParams", "SlabParams", "ElementsParams"]
+__all__ = ["OpeningParams", "ViewpointParams", "WallRunParams", "SlabParams", "ElementsParams"]
 
 
 @dataclass(frozen=True)
@@ -99,6 +99,12 @@ class OpeningParams:
     jambs), not shadowed and with no back inside the thickness (a niche), is kept however
     little is seen beyond it: an upper storey's window looks at the sky, which returns no
     point."""
+    band_flank: Metres = 1.0
+    """Without scanner positions, a gap's rows are compared with the face this far beside it,
+    metres ..."""
+    band_share: Ratio = 0.3
+    """... and lines of sight through it prove nothing when those rows hold less than this
+    share of the face's density there over its height (a band between a scanner's lines)."""
     min_confidence: Ratio = 0.3
     """Gaps with less confidence are dropped."""
     leaf_depth: tuple = (0.02, 0.10)
@@ -121,6 +127,36 @@ class OpeningParams:
     min_elevated_points: Count = 5
     """Points that far below (within 2 m of the opening along the wall) needed to call an
     opening elevated (a narrow one seen through at a glance shows a few)."""
+
+
+@dataclass(frozen=True)
+class ViewpointParams:
+    """Stand-in scanners in the rooms when the scan has no scanner positions
+    (:mod:`engine.elements.viewpoints`)."""
+
+    spacing: Metres = 4.0
+    """One viewpoint per grid point of this spacing over a room's footprint (at least one per
+    room), metres."""
+    clearance: Metres = 0.5
+    """Viewpoints keep this far inside the room's outline, metres."""
+    height: Metres = 1.5
+    """Over the storey's floor (at most 60 % of its height): a scanner's height, metres."""
+    voxel: Metres = 0.1
+    """Occupancy voxel that blocks a line of sight, metres."""
+    source_voxel: Metres = 0.2
+    """Points are tested per voxel of this size (their mean position), metres."""
+    neighbours: Count = 4
+    """Each point is tested against this many nearest viewpoints."""
+    max_range: Metres = 15.0
+    """Viewpoints farther than this from a point do not see it, metres."""
+    plane_tolerance: Metres = 0.15
+    """Occupied voxels this close to a point's tangent plane are its own surface (a floor seen
+    at a glancing angle), not an obstacle, metres."""
+    max_flatness: Ratio = 0.3
+    """A source voxel's points lie on a plane when their least spread is at most this share of
+    the next one."""
+    chunk: Count = 200000
+    """Lines marched at once (memory)."""
 
 
 @dataclass(frozen=True)
@@ -194,3 +230,5 @@ class ElementsParams:
     openings: OpeningParams = field(default_factory=OpeningParams)
     detect_openings: Flag = True
     """Find doors and windows in the walls when a scan is given."""
+    viewpoints: ViewpointParams = field(default_factory=ViewpointParams)
+    """Stand-in scanners for a scan without scanner positions."""
