@@ -12,7 +12,8 @@ from scipy import ndimage
 
 from .params import OpeningParams
 
-__all__ = ["box_sum", "face_present", "observed_columns", "gap_rectangles", "hole_edge", "near_points"]
+__all__ = ["banded", "box_sum", "face_present", "observed_columns", "gap_rectangles", "hole_edge", "near_points",
+           "on_solid"]
 
 
 def box_sum(a: np.ndarray, k: int) -> np.ndarray:
@@ -192,3 +193,28 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
 def near_points(a: np.ndarray, k: int = 3) -> np.ndarray:
     """Cells with a point within a k × k neighbourhood (boolean)."""
     return box_sum(a, k) > 0 if a.size else np.zeros(a.shape, bool)
+
+
+def banded(face: np.ndarray, a: int, b: int, lo: int, hi: int, rb: int, p) -> bool:
+    """``face``: (2, nu, nz) counts of a wall's two faces. The rows ``lo:hi`` are sampled thinly along the face beside columns ``a:b`` too (within
+    ``band_flank`` either side: under ``band_share`` of the flanks' density over the wall's
+    height): a band between a scanner's lines (a mobile scanner's rings leave one at its
+    own height), not a hole."""
+    f = int(round(p.band_flank / p.cell))
+    nu, nz = face.shape[1:]
+    cols = np.r_[max(0, a - f):a, b:min(nu, b + f)]
+    if len(cols) == 0 or hi <= lo:
+        return False
+    face = face[:, cols].sum(axis=0)  # both faces
+    rows = face[:, lo:hi].mean()
+    return bool(rows < p.band_share * face[:, rb:max(rb + 1, nz - rb)].mean())
+
+
+def on_solid(solid: np.ndarray, u: np.ndarray, z: np.ndarray, w, c: float) -> np.ndarray:
+    """(m,) bool: the face cells at ``u``, ``z`` (metres) within the wall (``length``,
+    ``floor_z``, ``ceiling_z``) hold points near."""
+    nu, nz = solid.shape
+    inw = (u >= 0) & (u < w.length) & (z >= w.floor_z) & (z < w.ceiling_z)
+    iu = np.clip((u / c).astype(np.int64), 0, nu - 1)
+    iz = np.clip(((z - w.floor_z) / c).astype(np.int64), 0, nz - 1)
+    return inw & solid[iu, iz]

@@ -36,7 +36,8 @@ from scipy import ndimage
 from ..errors import InputError
 from ..geometry.boxes import min_area_box
 from ..model import Polyhedron, Shape, ShapeType, Storey
-from .gaps import box_sum, face_present, gap_rectangles, hole_edge, near_points, observed_columns
+from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, near_points, observed_columns,
+                   on_solid)
 from .params import OpeningParams
 from .sills import low_quantile, split_by_bottom
 
@@ -276,15 +277,6 @@ def _behind_wall(walls: list[_Wall], wall_of: np.ndarray, S: np.ndarray, cell_xy
     return out
 
 
-def _on_solid(solid: np.ndarray, u: np.ndarray, z: np.ndarray, w: _Wall, c: float) -> np.ndarray:
-    """(m,) bool: the face cells at ``u``, ``z`` (metres) within the wall hold points near."""
-    nu, nz = solid.shape
-    inw = (u >= 0) & (u < w.length) & (z >= w.floor_z) & (z < w.ceiling_z)
-    iu = np.clip((u / c).astype(np.int64), 0, nu - 1)
-    iz = np.clip(((z - w.floor_z) / c).astype(np.int64), 0, nz - 1)
-    return inw & solid[iu, iz]
-
-
 def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, tol: float,
               p: OpeningParams, wall_of: Optional[np.ndarray] = None, stand_in: bool = False) -> None:
     """Fill ``through`` / ``shadow`` of each wall face from the scanners that see it.
@@ -355,8 +347,8 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
                 lam_m = (a_s - (a_n + a_f) / 2) / (a_s - a_q[i_t])
                 um = u_s + lam_m * (u_q[i_t] - u_s)
                 zm = S[2] + lam_m * (q[i_t, 2] - S[2])
-                thr[i_t[_on_solid(solid[wi][1 - s], uf, zf, w, c) | _on_solid(solid[wi][s], un, zn, w, c)
-                        | _on_solid(solid[wi][2], um, zm, w, c)]] = False
+                thr[i_t[on_solid(solid[wi][1 - s], uf, zf, w, c) | on_solid(solid[wi][s], un, zn, w, c)
+                        | on_solid(solid[wi][2], um, zm, w, c)]] = False
             occ = (a_q > a_n + tol) & (a_q < min(a_s - 0.05, a_n + p.reach))  # furniture near the face
             m = thr | occ
             if not m.any():
@@ -471,21 +463,6 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     return el, er, eb, et, "window"
 
 
-def _banded(dd: _Data, a: int, b: int, lo: int, hi: int, rb: int, p: OpeningParams) -> bool:
-    """The rows ``lo:hi`` are sampled thinly along the face beside columns ``a:b`` too (within
-    ``band_flank`` either side: under ``band_share`` of the flanks' density over the wall's
-    height): a band between a scanner's lines (a mobile scanner's rings leave one at its
-    own height), not a hole."""
-    f = int(round(p.band_flank / p.cell))
-    nu, nz = dd.face.shape[1:]
-    cols = np.r_[max(0, a - f):a, b:min(nu, b + f)]
-    if len(cols) == 0 or hi <= lo:
-        return False
-    face = dd.face[:, cols].sum(axis=0)  # both faces
-    rows = face[:, lo:hi].mean()
-    return bool(rows < p.band_share * face[:, rb:max(rb + 1, nz - rb)].mean())
-
-
 def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -> Optional[dict]:
     """Measure a candidate, classify it and weigh its evidence; None when it is no opening.
 
@@ -517,7 +494,7 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     hi = int(np.clip(round((et - z0) / c) - 1, lo + 1, nz))
     cells = (slice(a, b), slice(lo, hi))
     seen = near_points(dd.through[0][cells] + dd.through[1][cells])
-    if dd.stand_in and _banded(dd, a, b, lo, hi, rb, p):
+    if dd.stand_in and banded(dd.face, a, b, lo, hi, rb, p):
         seen = np.zeros_like(seen)  # a stand-in's line through a thinly sampled band proves nothing
     elif dd.stand_in and kind == "door":  # ... nor one between a leaf's points
         seen &= ~near_points(dd.leaf[0][cells] + dd.leaf[1][cells])

@@ -93,6 +93,19 @@ def occupancy(xyz: np.ndarray, p: ViewpointParams = ViewpointParams()) -> _Occup
     return _Occupancy(np.asarray(xyz, np.float64)[np.isfinite(xyz).all(axis=1)], p.voxel)
 
 
+def _voxel_planes(xyz: np.ndarray, src: np.ndarray, inv: np.ndarray, cnt: np.ndarray,
+                  max_flatness: float) -> np.ndarray:
+    """(m, 3) unit normal of each source voxel's points (PCA about their mean ``src``), zero
+    where fewer than 3 points or no plane (least spread over ``max_flatness`` of the next)."""
+    m = len(src)
+    d = xyz - src[inv]
+    cov = np.stack([np.stack([np.bincount(inv, d[:, i] * d[:, j], m) for j in range(3)], axis=-1)
+                    for i in range(3)], axis=-2) / cnt[:, None, None]
+    w, vec = np.linalg.eigh(cov)
+    flat = (cnt >= 3) & (w[:, 0] <= max_flatness * w[:, 1])
+    return np.where(flat[:, None], vec[:, :, 0], 0.0)
+
+
 def visible_pairs(xyz: np.ndarray, viewpoints: np.ndarray,
                   p: ViewpointParams = ViewpointParams(), occupancy: Optional[_Occupancy] = None
                   ) -> tuple[np.ndarray, np.ndarray]:
@@ -110,14 +123,9 @@ def visible_pairs(xyz: np.ndarray, viewpoints: np.ndarray,
     m = len(uniq)
     cnt = np.bincount(inv, minlength=m).astype(np.float64)
     src = np.column_stack([np.bincount(inv, xyz[:, j], m) for j in range(3)]) / cnt[:, None]
-    # each source voxel's plane (PCA of its points): its own surface does not block its lines
-    # (a floor seen at a glancing angle); too few points or no plane: the first 2 voxels do not
-    d = xyz - src[inv]
-    cov = np.stack([np.stack([np.bincount(inv, d[:, i] * d[:, j], m) for j in range(3)], axis=-1)
-                    for i in range(3)], axis=-2) / cnt[:, None, None]
-    w, vec = np.linalg.eigh(cov)
-    flat = (cnt >= 3) & (w[:, 0] <= p.max_flatness * w[:, 1])
-    nrm = np.where(flat[:, None], vec[:, :, 0], 0.0)
+    # each source voxel's plane: its own surface does not block its lines (a floor seen at a
+    # glancing angle); too few points or no plane: the first 2 voxels do not
+    nrm = _voxel_planes(xyz, src, inv, cnt, p.max_flatness)
     kq = min(p.neighbours, len(viewpoints))
     dist, vi = cKDTree(viewpoints).query(src, k=kq, distance_upper_bound=p.max_range)
     dist, vi = dist.reshape(m, kq), vi.reshape(m, kq)
