@@ -494,7 +494,8 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     hi = int(np.clip(round((et - z0) / c) - 1, lo + 1, nz))
     cells = (slice(a, b), slice(lo, hi))
     seen = near_points(dd.through[0][cells] + dd.through[1][cells])
-    if dd.stand_in and banded(dd.face, a, b, lo, hi, rb, p):
+    band = dd.stand_in and banded(dd.face, a, b, lo, hi, rb, p)
+    if band:
         seen = np.zeros_like(seen)  # a stand-in's line through a thinly sampled band proves nothing
     elif dd.stand_in and kind == "door":  # ... nor one between a leaf's points
         seen &= ~near_points(dd.leaf[0][cells] + dd.leaf[1][cells])
@@ -511,7 +512,8 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     f_occ = float((near_points(shade) & ~reached).mean())
     f_front = max([float(near_points(dd.front[s][cells]).mean()) for s in _inner_faces(obs, a, b, outer)],
                   default=0.0)
-    n_beyond = int(sum(dd.front[s][cells].sum() for s in outer)) + int(dd.through[:, a:b, lo:hi].sum())
+    n_beyond = 0 if band else (int(sum(dd.front[s][cells].sum() for s in outer))
+                               + int(dd.through[:, a:b, lo:hi].sum()))  # nor points beyond it
     both = (not w.external) and obs[0][a:b].mean() > 0.8 and obs[1][a:b].mean() > 0.8
     f_floor = float((box_sum(dd.floor[a:b, None], 3)[:, 0] > 0).mean()) if kind != "window" else 0.0
     # reveals: jambs, head and sill inside the thickness, well above the noise spilling from
