@@ -31,8 +31,8 @@ from .segmentation.planes import extract_planes
 from .segmentation.storeys import detect_storeys
 from .threads import thread_cap
 
-__all__ = ["ChoiceParams", "Prepared", "preprocess", "align", "cap_points", "full_cloud_normals", "manhattan_score", "choose_method",
-           "normal_tilt_spread"]
+__all__ = ["ChoiceParams", "Prepared", "preprocess", "align", "cap_points", "full_cloud_normals", "plausible_scanners",
+           "manhattan_score", "choose_method", "normal_tilt_spread"]
 
 log = logging.getLogger(__name__)
 
@@ -185,6 +185,9 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
     if not keep.all():
         log.info("%s: %d points in %d far clusters removed", cloud.source or "cloud", (~keep).sum(), groups)
         full = full.subset(keep)
+    full, dropped = plausible_scanners(full, params.clean.scanner_margin)
+    if dropped:
+        cleaning["scanner_positions_dropped"] = dropped
     t["strays"] = time.perf_counter() - t0
     spacing = tree = None  # only the Manhattan grammar reads them
     if full_normals:  # the working cloud then shares them
@@ -267,6 +270,31 @@ def cap_points(cloud: PointCloud, params: CleanParams = CleanParams()) -> tuple[
     keep = np.random.default_rng(0).random(n) < limit / n
     log.info("%s: %d points thinned to %d at random", cloud.source or "cloud", n, int(keep.sum()))
     return cloud.subset(keep), {"points": n, "kept": int(keep.sum())}
+
+
+def plausible_scanners(cloud: PointCloud, margin: float, box=None) -> tuple[PointCloud, int]:
+    """``cloud`` without the scanner positions that lie more than ``margin`` outside its
+    points' box (or ``box``, (lo, hi): the building's), not where it was scanned, and how many
+    were dropped. Their points get no scanner (``scan_index`` -1); with none left, the cloud
+    has no positions at all (the openings then use stand-ins, :mod:`engine.elements.viewpoints`)."""
+    sp = cloud.scanner_positions
+    if sp is None or len(sp) == 0 or len(cloud) == 0:
+        return cloud, 0
+    lo, hi = (cloud.xyz.min(axis=0), cloud.xyz.max(axis=0)) if box is None else box
+    lo, hi = np.asarray(lo) - margin, np.asarray(hi) + margin
+    ok = np.isfinite(sp).all(axis=1) & (sp >= lo).all(axis=1) & (sp <= hi).all(axis=1)
+    bad = int((~ok & np.isfinite(sp).all(axis=1)).sum())
+    if bad == 0:
+        return cloud, 0
+    log.warning("%s: %d of %d scanner positions lie outside the scan's points (by more than %.1f m) and "
+                "are ignored", cloud.source or "cloud", bad, len(sp), margin)
+    if not ok.any() or len(sp) == 1 or cloud.scan_index is None:
+        return cloud.with_(scanner_positions=None, scan_index=None), bad
+    si = np.asarray(cloud.scan_index)
+    out = np.where((si >= 0) & (si < len(sp)), si, -1)
+    out[(out >= 0) & ~ok[np.clip(out, 0, len(sp) - 1)]] = -1
+    sp = np.where(ok[:, None], sp, np.nan)
+    return cloud.with_(scanner_positions=sp, scan_index=out.astype(np.int32)), bad
 
 
 def full_cloud_normals(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),

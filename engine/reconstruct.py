@@ -30,7 +30,7 @@ from .io import read_point_cloud
 from .jobs import check_output_dir
 from .model import BuildingModel
 from .params import Params
-from .pipeline import cap_points, choose_method, preprocess
+from .pipeline import cap_points, choose_method, plausible_scanners, preprocess
 from .segmentation.cleaning import drop_nonfinite
 from .pointcloud import PointCloud
 from .progress import Progress
@@ -84,6 +84,9 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
     t_cap = time.perf_counter() - t0
     prep = preprocess(cloud, params.preprocess, rng=gen, planes=method != "manhattan",
                       full_normals=method == "manhattan", progress=p.sub(0.0, 0.4))
+    if prep.cleaning.get("scanner_positions_dropped"):  # the elements read the input cloud's too
+        cloud, _ = plausible_scanners(cloud, params.preprocess.clean.scanner_margin,
+                                      (prep.cloud.xyz.min(axis=0), prep.cloud.xyz.max(axis=0)))
     choice = {}
     if method == "auto":
         method, score = choose_method(prep, params.choice)

@@ -56,6 +56,10 @@ class CleanParams:
     every point)."""
     min_points: Count = 100
     """Fewer usable points than this is an error."""
+    scanner_margin: Metres = 1.0
+    """A scanner position farther than this outside the building's points (their box) is not
+    where the scan was taken (a file's default viewpoint at the origin of a georeferenced
+    cloud, poses in another frame): it is dropped, and the points it holds get none, metres."""
 
 
 @dataclass(frozen=True)

@@ -113,3 +113,29 @@ def test_a_scan_past_max_points_is_thinned_first_and_reconstructs_alike(office):
     assert "thin" in model.provenance.timings
     rooms = [s for s in model.spaces if not s.parent]
     assert len(rooms) == len(office.truth.spaces)  # the 40k-point sample still gives every room
+
+
+def test_scanner_positions_outside_the_building_are_dropped(office):
+    """A file's scanner positions that lie outside its points (PCD's default viewpoint at the
+    origin of a georeferenced cloud, poses in another frame) are not where it was scanned."""
+    cloud = office.cloud
+    sp = cloud.scanner_positions
+    assert sp is not None and len(sp) > 2 and cloud.scan_index is not None
+    moved = sp.copy()
+    moved[0] += [500.0, 0.0, 0.0]  # one pose in another frame: it and its points' scan go
+    out, dropped = pipeline.plausible_scanners(cloud.with_(scanner_positions=moved), 1.0)
+    assert dropped == 1
+    assert np.isnan(out.scanner_positions[0]).all() and np.isfinite(out.scanner_positions[1:]).all()
+    assert (out.scan_index[cloud.scan_index == 0] == -1).all()
+    assert (out.scan_index[cloud.scan_index != 0] == cloud.scan_index[cloud.scan_index != 0]).all()
+    # all of them elsewhere: the cloud has none, and the openings use stand-ins in the rooms
+    away = cloud.with_(scanner_positions=sp + [0.0, 0.0, 50.0])
+    out, dropped = pipeline.plausible_scanners(away, 1.0)
+    assert dropped == len(sp) and out.scanner_positions is None and out.scan_index is None
+    model = reconstruct(away, "auto", rng=0)
+    assert model.provenance.trace["cleaning"]["scanner_positions_dropped"] == len(sp)
+    doors = [d for d in model.doors if d.attributes.get("detected")]
+    assert len(doors) >= len(office.truth.doors) - 1, len(doors)  # stand-ins find them
+    # positions inside the building's box are kept (a scanner 1 m over the top still is)
+    inside = cloud.with_(scanner_positions=sp + [0.0, 0.0, 0.5])
+    assert pipeline.plausible_scanners(inside, 1.0)[1] == 0
