@@ -31,8 +31,8 @@ from .segmentation.planes import extract_planes
 from .segmentation.storeys import detect_storeys
 from .threads import thread_cap
 
-__all__ = ["ChoiceParams", "Prepared", "preprocess", "align", "cap_points", "full_cloud_normals", "plausible_scanners",
-           "manhattan_score", "choose_method", "normal_tilt_spread"]
+__all__ = ["ChoiceParams", "Prepared", "preprocess", "align", "cap_points", "full_cloud_normals",
+           "plausible_scanners", "manhattan_score", "choose_method", "normal_tilt_spread"]
 
 log = logging.getLogger(__name__)
 

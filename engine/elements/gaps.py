@@ -12,8 +12,8 @@ from scipy import ndimage
 
 from .params import OpeningParams
 
-__all__ = ["banded", "box_sum", "face_present", "observed_columns", "gap_rectangles", "hole_edge", "near_points",
-           "on_solid"]
+__all__ = ["banded", "box_sum", "face_present", "observed_columns", "gap_rectangles", "hole_edge",
+           "near_points", "on_solid"]
 
 
 def box_sum(a: np.ndarray, k: int) -> np.ndarray:
@@ -196,10 +196,10 @@ def near_points(a: np.ndarray, k: int = 3) -> np.ndarray:
 
 
 def banded(face: np.ndarray, a: int, b: int, lo: int, hi: int, rb: int, p) -> bool:
-    """``face``: (2, nu, nz) counts of a wall's two faces. The rows ``lo:hi`` are sampled thinly along the face beside columns ``a:b`` too (within
-    ``band_flank`` either side: under ``band_share`` of the flanks' density over the wall's
-    height): a band between a scanner's lines (a mobile scanner's rings leave one at its
-    own height), not a hole."""
+    """``face``: (2, nu, nz) counts of a wall's two faces. The rows ``lo:hi`` are sampled
+    thinly along the face beside columns ``a:b`` too (within ``band_flank`` either side: under
+    ``band_share`` of the flanks' density over the wall's height): a band between a scanner's
+    lines (a mobile scanner's rings leave one at its own height), not a hole."""
     f = int(round(p.band_flank / p.cell))
     nu, nz = face.shape[1:]
     cols = np.r_[max(0, a - f):a, b:min(nu, b + f)]

@@ -338,17 +338,13 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
                 # a line of sight, not a ray: it passes the faces and the thickness only where
                 # they have no points (a sparse face leaves gaps between voxels; a door's leaf)
                 i_t = np.flatnonzero(thr)
-                lam_f = (a_s - a_f) / (a_s - a_q[i_t])
-                uf = u_s + lam_f * (u_q[i_t] - u_s)
-                zf = S[2] + lam_f * (q[i_t, 2] - S[2])
-                lam_n = (a_s - a_n) / (a_s - a_q[i_t])
-                un = u_s + lam_n * (u_q[i_t] - u_s)
-                zn = S[2] + lam_n * (q[i_t, 2] - S[2])
-                lam_m = (a_s - (a_n + a_f) / 2) / (a_s - a_q[i_t])
-                um = u_s + lam_m * (u_q[i_t] - u_s)
-                zm = S[2] + lam_m * (q[i_t, 2] - S[2])
-                thr[i_t[on_solid(solid[wi][1 - s], uf, zf, w, c) | on_solid(solid[wi][s], un, zn, w, c)
-                        | on_solid(solid[wi][2], um, zm, w, c)]] = False
+                hit = np.zeros(len(i_t), bool)
+                planes = ((a_n, solid[wi][s]), (a_f, solid[wi][1 - s]), ((a_n + a_f) / 2, solid[wi][2]))
+                for a_x, sol in planes:
+                    lam_x = (a_s - a_x) / (a_s - a_q[i_t])  # where the line crosses that plane
+                    hit |= on_solid(sol, u_s + lam_x * (u_q[i_t] - u_s), S[2] + lam_x * (q[i_t, 2] - S[2]),
+                                    w, c)
+                thr[i_t[hit]] = False
             occ = (a_q > a_n + tol) & (a_q < min(a_s - 0.05, a_n + p.reach))  # furniture near the face
             m = thr | occ
             if not m.any():
