@@ -68,22 +68,26 @@ def elevated_doors(openings: list[Shape], walls: list[Shape], grid: PointGrid,
         w = by_id.get(o.parent)
         seen = float((o.support or {}).get("seen_through", 0.0))
         frame = _outer_normal(w) if w is not None and w.attributes.get("external") else None
-        if o.type != ShapeType.DOOR or not o.attributes.get("open", True) or seen < params.min_seen_through \
-                or frame is None:
+        if o.type != ShapeType.DOOR or not o.attributes.get("open", True) or frame is None:
+            out.append(o)
+            continue
+        floor = float(o.bounds[0, 2]) - float(o.attributes.get("sill", 0.0))
+        upper = lowest_floor is not None and floor - lowest_floor >= params.elevated_drop
+        # an upper storey's open door shows its balcony's floor just beyond whether or not
+        # much else is seen through it; on the lowest storey only what is seen through counts
+        if seen < params.min_seen_through and not upper:
             out.append(o)
             continue
         a, d, n, half = frame
         u = float(d @ (o.centroid[:2] - a))
         width = float(o.attributes.get("width", 0.0))
         u0, u1 = u - width / 2, u + width / 2
-        floor = float(o.bounds[0, 2]) - float(o.attributes.get("sill", 0.0))
         lo, hi = params.egress_band
         # from a step's depth out: the first pass's walls have the default thickness, and a
         # thicker wall's sill under a low window lies at about the floor's level
         walk = _beyond(grid, a, d, n, half, u0, u1, params.egress_depth, floor + lo, floor + hi,
                        params.egress_gap)
         below = _beyond(grid, a, d, n, half, u0 - 2.0, u1 + 2.0, 20.0, -np.inf, floor - params.elevated_drop)
-        upper = lowest_floor is not None and floor - lowest_floor >= params.elevated_drop
         if walk > 3 or (below < params.min_elevated_points and not upper):
             out.append(o)
             continue

@@ -146,7 +146,7 @@ class ViewpointParams:
     source_voxel: Metres = 0.2
     """Points are tested per voxel of this size (their mean position), metres."""
     neighbours: Count = 4
-    """Each point is tested against this many nearest viewpoints."""
+    """Each point is tested against this many nearest viewpoints (at least 2 per storey)."""
     max_range: Metres = 15.0
     """Viewpoints farther than this from a point do not see it, metres."""
     plane_tolerance: Metres = 0.15

@@ -106,11 +106,33 @@ def _voxel_planes(xyz: np.ndarray, src: np.ndarray, inv: np.ndarray, cnt: np.nda
     return np.where(flat[:, None], vec[:, :, 0], 0.0)
 
 
+def _nearest_per_level(src: np.ndarray, viewpoints: np.ndarray, p: ViewpointParams):
+    """(source, viewpoint, distance) candidates: each source's nearest viewpoints within
+    ``p.max_range`` on each level (viewpoint height): ``p.neighbours`` in all, at least 2 per
+    level — the ground seen through an upper storey's window is nearer the lower storey's
+    viewpoints, which see it through their own windows."""
+    z = np.round(viewpoints[:, 2], 2)
+    levels = np.unique(z)
+    per = p.neighbours if len(levels) == 1 else max(2, p.neighbours // len(levels))
+    out_s, out_v, out_d = [], [], []
+    m = len(src)
+    for lv in levels:
+        ids = np.flatnonzero(z == lv)
+        kq = min(per, len(ids))
+        d, i = cKDTree(viewpoints[ids]).query(src, k=kq, distance_upper_bound=p.max_range)
+        d, i = d.reshape(m, kq), i.reshape(m, kq)
+        ok = np.isfinite(d)
+        out_s.append(np.repeat(np.arange(m), kq)[ok.ravel()])
+        out_v.append(ids[i[ok]])
+        out_d.append(d[ok])
+    return np.concatenate(out_s), np.concatenate(out_v), np.concatenate(out_d)
+
+
 def visible_pairs(xyz: np.ndarray, viewpoints: np.ndarray,
                   p: ViewpointParams = ViewpointParams(), occupancy: Optional[_Occupancy] = None
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """(point index, viewpoint index) int64 arrays: each point with each of its
-    ``p.neighbours`` nearest viewpoints within ``p.max_range`` whose line to it crosses no
+    """(point index, viewpoint index) int64 arrays: each point with each of its nearest
+    viewpoints (:func:`_nearest_per_level`) whose line to it crosses no
     occupied voxel farther than ``2 voxel`` from the point, ``p.plane_tolerance`` from its
     plane (its own surface) and ``voxel`` from the viewpoint. Points are taken per voxel of
     ``p.source_voxel``: their mean position and plane (PCA)."""
@@ -126,15 +148,10 @@ def visible_pairs(xyz: np.ndarray, viewpoints: np.ndarray,
     # each source voxel's plane: its own surface does not block its lines (a floor seen at a
     # glancing angle); too few points or no plane: the first 2 voxels do not
     nrm = _voxel_planes(xyz, src, inv, cnt, p.max_flatness)
-    kq = min(p.neighbours, len(viewpoints))
-    dist, vi = cKDTree(viewpoints).query(src, k=kq, distance_upper_bound=p.max_range)
-    dist, vi = dist.reshape(m, kq), vi.reshape(m, kq)
-    ok = np.isfinite(dist)
-    s_idx = np.repeat(np.arange(m), kq)[ok.ravel()]
-    v_idx = vi.ravel()[ok.ravel()]
+    s_idx, v_idx, dist = _nearest_per_level(src, viewpoints, p)
     clear = np.zeros(len(s_idx), bool)
     step = p.voxel / 2
-    order = np.argsort(dist.ravel()[ok.ravel()], kind="stable")
+    order = np.argsort(dist, kind="stable")
     skip = 2 * p.voxel
     for a in range(0, len(order), p.chunk):
         sel = order[a:a + p.chunk]

@@ -81,3 +81,21 @@ def test_no_viewpoints_no_pairs():
     xyz = np.random.default_rng(2).uniform(0, 1, (100, 3))
     pt, v = visible_pairs(xyz, np.zeros((0, 3)))
     assert len(pt) == len(v) == 0
+
+
+def test_each_storeys_viewpoints_look_at_a_point():
+    """The ground seen through an upper storey's window lies nearer the lower storey's
+    viewpoints; the upper ones must be asked too (at least 2 per level)."""
+    from engine.elements.viewpoints import _nearest_per_level
+
+    low = np.array([[x, 2.0, 1.5] for x in (1.0, 3.0, 5.0, 7.0, 9.0)])
+    high = np.array([[2.0, 2.0, 4.6], [8.0, 2.0, 4.6], [14.0, 2.0, 4.6]])
+    vp = np.vstack([low, high])
+    src = np.array([[5.0, -3.0, 0.0]])  # the ground outside, under the upper storey
+    s, v, d = _nearest_per_level(src, vp, ViewpointParams(neighbours=4))
+    assert (s == 0).all()
+    assert sorted(v[vp[v, 2] > 3]) == [5, 6] and len(v[vp[v, 2] < 3]) == 2  # 2 per level, nearest
+    assert np.allclose(d, np.linalg.norm(vp[v] - src[0], axis=1))
+    # one level: the 4 nearest
+    s, v, d = _nearest_per_level(src, low, ViewpointParams(neighbours=4))
+    assert sorted(v) == [0, 1, 2, 3] or sorted(v) == [1, 2, 3, 4]
