@@ -443,9 +443,11 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     if floor_reach:
         if not p.min_door_width <= width <= p.max_opening_width:
             return None
+        if et - z0 < p.min_door_height:
+            return None  # too low to walk through, however wide (a strip under furniture)
         if ceil_reach or width > p.max_door_width or min(w.top, z1) - et <= p.ceiling_tolerance:
             return el, er, z0, et, "opening"
-        return (el, er, z0, et, "door") if et - z0 >= p.min_door_height else None
+        return el, er, z0, et, "door"
     if ceil_reach:
         # the raster leaves out the band under the ceiling (``edge_band``), so a window whose
         # head stands a few centimetres under it (glazing up to the ceiling) reaches the

@@ -507,6 +507,17 @@ def test_floor_to_ceiling_and_very_wide_gaps_are_doorless_openings():
     assert abs(ops[0].attributes["width"] - 1.2) <= 0.05 and abs(ops[0].attributes["height"] - H) <= 0.05
 
 
+def test_a_wide_gap_too_low_to_walk_through_is_no_opening():
+    """A 2.4 m wide, 0.6 m tall hole at the floor (the strip a bed's shadow leaves, sampled
+    as a hole): wider than a door, so it was a doorless "opening" however low, and on an
+    upper storey the egress rule then made it a 0.6 m "window" with its sill at the floor
+    (the Duplex's level 2 without scanner positions: 1-3 per seed). Too low for a door,
+    with no wall under it for a window: nothing."""
+    boxes, walls, scanners = _two_rooms(_holed_wall(T_INT, (1.0, 3.4, 0.0, 0.6)))
+    xyz, idx, pos = _scan(boxes, scanners)
+    assert detect_openings(walls, [STOREY], xyz, scan_index=idx, scanner_positions=pos) == []
+
+
 def test_narrow_gaps_are_no_openings():
     """A 0.4 m slot from the floor to 2.1 m is narrower than a door."""
     boxes, walls, scanners = _two_rooms(_holed_wall(T_INT, (2.0, 2.4, 0.0, 2.1)))
