@@ -283,13 +283,13 @@ def _without_positions(results, name, noise, seed):
 def test_a_scan_without_scanner_positions_finds_its_doors_from_stand_in_scanners(results):
     """The Duplex, TLS, seed 3, without its scanner positions: without rays, furniture in
     front of a gap could only be judged by its perpendicular cover, and no gap was seen
-    through: 8 of 14 doors (11 found), 11 of 22 windows (13 found). Stand-in scanners in the
-    rooms, with lines of sight through the scan's voxels: 14 of 14 doors (3 extra), 18 of 22
-    windows (4 extra)."""
+    through: 8 of 14 doors (11 found), 11 of 24 windows (13 found). Stand-in scanners in the
+    rooms, with lines of sight through the scan's voxels: 14 of 14 doors (none extra), 21 of
+    24 windows (2 extra; the level-2 windows 750 x 2200 are windows, not doors)."""
     sc, m, r = _without_positions(results, "duplex", "tls", 3)
     d, w = r["doors"], r["windows"]
-    assert d["matched"] >= 13 and d["found"] <= d["matched"] + 4, d  # measured 14 of 17 found
-    assert w["matched"] >= 16 and w["found"] <= w["matched"] + 5, w  # measured 18 of 22 found
+    assert d["matched"] >= 13 and d["found"] <= d["matched"] + 2, d  # measured 14 of 14 found
+    assert w["matched"] >= 18 and w["found"] <= w["matched"] + 4, w  # measured 21 of 23 found
 
 
 @pytest.mark.slow
