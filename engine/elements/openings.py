@@ -40,6 +40,7 @@ from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, nea
                    on_solid)
 from .params import OpeningParams
 from .sills import low_quantile, split_by_bottom
+from .viewpoints import group_members
 
 __all__ = ["OpeningParams", "detect_openings"]
 
@@ -740,9 +741,7 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
         starts = np.searchsorted(pp, np.arange(len(xyz) + 1))
 
         def scan_count(ii):
-            lens = starts[ii + 1] - starts[ii]
-            at = np.repeat(starts[ii] - np.cumsum(lens) + lens, lens) + np.arange(int(lens.sum()))
-            return np.bincount(vv[at], minlength=n_scans)
+            return np.bincount(vv[group_members(starts, ii)], minlength=n_scans)
     elif n_scans:
         pp = None
 

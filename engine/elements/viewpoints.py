@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 from ..model import Storey
 from .params import ViewpointParams
 
-__all__ = ["ViewpointParams", "occupancy", "room_viewpoints", "visible_pairs"]
+__all__ = ["ViewpointParams", "group_members", "occupancy", "room_viewpoints", "visible_pairs"]
 
 _BITS = 21  # bits per axis of a voxel key (±1 M voxels)
 _OFF = 1 << (_BITS - 1)
@@ -33,6 +33,13 @@ def _keys(ijk: np.ndarray) -> np.ndarray:
     """int64 keys of (m, 3) voxel indices."""
     a = ijk.astype(np.int64) + _OFF
     return (a[..., 0] << (2 * _BITS)) | (a[..., 1] << _BITS) | a[..., 2]
+
+
+def group_members(starts: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Positions (into an array sorted by group, group ``g`` at ``starts[g]:starts[g + 1]``)
+    of every member of each of ``groups``, group after group."""
+    lens = starts[groups + 1] - starts[groups]
+    return np.repeat(starts[groups] - np.cumsum(lens) + lens, lens) + np.arange(int(lens.sum()))
 
 
 def room_viewpoints(footprints: Mapping[int, Mapping[str, object]], storeys: Sequence[Storey],
@@ -162,23 +169,23 @@ def visible_pairs(xyz: np.ndarray, viewpoints: np.ndarray,
         u = d / np.maximum(L, 1e-9)[:, None]
         ns = int(math.ceil(L.max() / step)) + 1
         blocked = np.zeros(len(sel), bool)
-        for j in range(1, ns):
+        for j in range(int(skip / step) + 1, ns):  # nearer than ``skip`` nothing blocks
             t = j * step
-            live = (t < L - p.voxel) & ~blocked
-            if not live.any():
+            if t <= skip:
+                continue
+            live = np.flatnonzero((t < L - p.voxel) & ~blocked)
+            if len(live) == 0:
                 continue
             q = P[live] + u[live] * t
-            hit = occ(q)
-            nl = nrm[s_idx[sel][live]]
-            own = np.abs(np.einsum("ij,ij->i", (q - P[live]), nl)) < p.plane_tolerance
-            own &= np.any(nl != 0.0, axis=1)
-            hit &= ~own & (t > skip)
-            blocked[np.flatnonzero(live)[hit]] = True
+            hit = np.flatnonzero(occ(q))
+            nl = nrm[s_idx[sel][live[hit]]]  # the point's own plane does not block
+            own = (np.abs(np.einsum("ij,ij->i", q[hit] - P[live[hit]], nl)) < p.plane_tolerance) \
+                & np.any(nl != 0.0, axis=1)
+            blocked[live[hit[~own]]] = True
         clear[sel] = ~blocked
     s_ok, v_ok = s_idx[clear], v_idx[clear]
     # expand source voxels to their points
     o = np.argsort(inv, kind="stable")
     starts = np.searchsorted(inv[o], np.arange(m + 1))
-    lens = starts[s_ok + 1] - starts[s_ok]
-    pt = o[np.repeat(starts[s_ok], lens) + (np.arange(lens.sum()) - np.repeat(np.cumsum(lens) - lens, lens))]
-    return pt.astype(np.int64), np.repeat(v_ok, lens).astype(np.int64)
+    pt = o[group_members(starts, s_ok)]
+    return pt.astype(np.int64), np.repeat(v_ok, starts[s_ok + 1] - starts[s_ok]).astype(np.int64)
