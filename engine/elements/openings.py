@@ -38,6 +38,7 @@ from ..geometry.boxes import min_area_box
 from ..model import Polyhedron, Shape, ShapeType, Storey
 from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, near_points, observed_columns,
                    on_solid)
+from .leaves import flush_leaves
 from .params import OpeningParams
 from .sills import low_quantile, split_by_bottom
 from .viewpoints import group_members
@@ -775,6 +776,9 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
                     for f in found:
                         _abut(o, f, p.abut)
                     found.append(o)
+        for o in flush_leaves(dd.fu, dd.fz, dd.fcls, dd.fdev, w.sides, w.length, w.floor_z, w.ceiling_z, tol, p):
+            if not any(_overlap(o, f, p.abut) for f in found):
+                found.append(o)
         ext = exterior_ids.get(w.shape.storey, f"exterior_s{w.shape.storey}")
         for j, o in enumerate(sorted(found, key=lambda f: f["u0"])):
             tag = "window" if o["kind"] == "window" else "door"

@@ -111,6 +111,17 @@ class OpeningParams:
     """A closed door leaf stands this far behind a face (inside the thickness), metres."""
     leaf_share: Ratio = 0.5
     """Share of a closed door's cells that must hold leaf points."""
+    flush_depth: Metres = 0.006
+    """A closed leaf within the face tolerance (:mod:`engine.elements.leaves`): the face
+    points over a door-sized rectangle reaching the floor stand at least this much deeper than
+    the face beside and above it, metres ..."""
+    flush_t: Factor = 8.0
+    """... and that many standard errors of the face's noise (over the rectangle's points)."""
+    flush_body: tuple = (0.3, 1.6)
+    """Heights over the floor where a flush leaf's recess is looked for along the wall, metres
+    (clear of skirting boards and of a door's head)."""
+    flush_flank: Metres = 0.3
+    """The face this wide beside a flush leaf is its reference depth, metres."""
     egress_depth: Metres = 1.2
     """An open exterior door leads onto ground, a terrace or a balcony: scan points at about
     its floor's level (``egress_band``) within this distance beyond the wall, metres."""

@@ -492,6 +492,63 @@ def test_a_closed_door_is_a_recessed_leaf_in_a_door_sized_gap():
     assert ops[0].support["seen_through"] < 0.1 and ops[0].support["leaf_share"] >= 0.5
 
 
+FLUSH = 0.012
+"""FZK-Haus's front door: its leaf stands 1.2 cm behind the inner face (a TLS face tolerance
+is 1.5 cm), metres."""
+
+
+def _flush_scene(wall_boxes, sigma, seed=0):
+    """Openings found in a 0.3 m exterior wall made of ``wall_boxes``, room_a on +v (inner
+    face at v = T_EXT / 2), scanned with range noise ``sigma``."""
+    boxes = _room(T_EXT / 2, 4.0) + list(wall_boxes)
+    walls = [_wall("w_ext", 0.0, 0.0, L, T_EXT, ("room_a", None), True)]
+    xyz, idx, pos = _scan(boxes, [(1.0, 2.5, 1.5), (3.6, 1.8, 1.5)], sigma=sigma, seed=seed)
+    return detect_openings(walls, [STOREY], xyz, scan_index=idx, scanner_positions=pos,
+                           exterior_ids={0: "outside_0"})
+
+
+def _leaf_in(hole, depth=FLUSH):
+    """A wall with a ``hole`` (u0, u1, z0, z1) filled by a leaf ``depth`` behind the inner face."""
+    u0, u1, z0, z1 = hole
+    return _holed_wall(T_EXT, hole) + [((u0, -T_EXT / 2, z0), (u1, T_EXT / 2 - depth, z1))]
+
+
+@pytest.mark.parametrize("sigma, seed", [(0.005, 0), (0.005, 1), (0.016, 0), (0.016, 1)])
+def test_a_closed_leaf_flush_with_the_face_is_a_door(sigma, seed):
+    """The leaf 1.2 cm behind the face: no gap (the face tolerance takes it), no leaf raster
+    (it starts 2 cm behind); the recess over a door's rectangle with the face beside it and
+    above it is the door, at terrestrial noise (5 mm) and a mobile scanner's (1.6 cm).
+    Before this rule: nothing found (FZK-Haus's front door, every scan)."""
+    ops = _flush_scene(_leaf_in(DOOR), sigma, seed)
+    assert len(ops) == 1, [o.attributes for o in ops]
+    a = ops[0].attributes
+    assert a["kind"] == "door" and a["open"] is False and a["spaces"] == ["room_a", "outside_0"]
+    assert abs(a["width"] - 0.9) <= 0.05 and abs(a["height"] - 2.1) <= 0.1 and a["sill"] == 0.0
+    assert abs(_centre_u(ops[0]) - 2.45) <= 0.05
+    assert 0.3 <= a["confidence"] <= 1.0 and ops[0].support["flush_depth"] >= 0.006
+
+
+def _step_wall(u, depth):
+    """A wall whose inner face steps ``depth`` back at ``u`` (two planes, one edge)."""
+    return [((0.0, -T_EXT / 2, 0.0), (u, T_EXT / 2, H)), ((u, -T_EXT / 2, 0.0), (L, T_EXT / 2 - depth, H))]
+
+
+@pytest.mark.parametrize("what", ["to the ceiling", "above the floor", "a step", "proud", "plain"])
+@pytest.mark.parametrize("sigma", [0.005, 0.016])
+def test_no_flush_door_without_a_recess_from_the_floor_to_a_lintel(what, sigma):
+    """A door-wide recess up to the ceiling (no lintel), one from 0.8 m up (a panel), a face
+    stepping back at one edge only, a door-sized panel standing proud of the face, a plain
+    face: no door, at either noise."""
+    u0, u1, _, z1 = DOOR
+    full = ((0.0, -T_EXT / 2, 0.0), (L, T_EXT / 2, H))
+    boxes = {"to the ceiling": _leaf_in((u0, u1, 0.0, H - 0.001)),
+             "above the floor": _leaf_in((u0, u1, 0.8, z1)),
+             "a step": _step_wall(u0, FLUSH),
+             "proud": [full, ((u0, T_EXT / 2, 0.0), (u1, T_EXT / 2 + FLUSH, z1))],
+             "plain": [full]}[what]
+    assert _flush_scene(boxes, sigma) == []
+
+
 def test_floor_to_ceiling_and_very_wide_gaps_are_doorless_openings():
     wide = (1.0, 3.4, 0.0, 2.1)  # 2.4 m: wider than a door
     boxes, walls, scanners = _two_rooms(_holed_wall(T_INT, wide))
