@@ -171,8 +171,17 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
             win = ndimage.convolve1d(hist, np.ones(7), mode="constant")
             k = int(np.argmax(win))
             if win[k] >= max(6.0, 0.5 * len(rev), 3.0 * win.sum() / nb):  # a plane, not spilled noise
-                ctr = edges[k] + 0.005
-                return float(np.median(rev[np.abs(rev - ctr) <= 0.035]))
+                ctr = float(np.median(rev[np.abs(rev - edges[k] - 0.005) <= 0.035]))
+                # ... and a jamb ends the face: the face runs on past spilled noise, 10-30 cm
+                # into the hole (clear of casings and an open leaf at the jamb) as densely as
+                # half of it does behind (a mobile scan's σ 2 cm puts a few face points into
+                # the thickness: six in one window read as a jamb 24 cm beyond the true one,
+                # house_multi_height mobile 4)
+                face = coord[band & ~inside]
+                d = (face - ctr) if take_max else (ctr - face)  # > 0: into the hole
+                into, back = int(((d > 0.10) & (d < 0.30)).sum()), int(((d < -0.10) & (d > -0.30)).sum())
+                if not (into >= 10 and into > 0.5 * back):
+                    return ctr
     # walking from the face into the hole, the face ends at the first gap much wider than
     # the spacing of the points before it, with only strays (a tenth) beyond; the last
     # point falls short of the end by about one spacing

@@ -49,10 +49,18 @@ def split_by_bottom(dd, rect, p: OpeningParams) -> list:
     if len(known) < 4 or not low.any() or not high.any():
         return [rect]
     seq = high[known]  # labels in column order: one change from floor to sill (or back)
-    change = np.flatnonzero(seq[1:] != seq[:-1])
-    if len(change) != 1:
+    # the best single cut (fewest columns on the wrong side of it): a stray column (a point
+    # under a sill, the floor seen through a window's frame) does not undo the split, while
+    # more than a tenth of them wrong says there is no one cut (Duplex TLS without positions:
+    # its terrace door and the low window beside it were one 5.7 m window on some machines)
+    h = np.cumsum(seq)
+    j = np.arange(1, len(seq))
+    low_first = h[j - 1] + (len(seq) - j - (h[-1] - h[j - 1]))  # highs before the cut, lows after
+    wrong = np.minimum(low_first, len(seq) - low_first)
+    i = int(np.argmin(wrong))
+    if wrong[i] > int(0.1 * len(seq)):
         return [rect]
-    i = int(change[0])
+    sill_first = bool(low_first[i] > len(seq) - low_first[i])
     k = a + int(known[i] + known[i + 1] + 1) // 2  # the cut, between the last of one and the first of the other
     lows, highs = a + np.flatnonzero(low), a + np.flatnonzero(high)
     if ((lows.max() - lows.min() + 1) * c < p.min_door_width or (highs.max() - highs.min() + 1) * c < p.min_window_width
@@ -60,6 +68,6 @@ def split_by_bottom(dd, rect, p: OpeningParams) -> list:
         return [rect]
     r_floor = int(math.ceil(p.edge_band / c))
     left, right = (c0, k, r0, r1), (k, c1, r0, r1)  # in order along the wall
-    if seq[0]:  # the sill first: the door is on the right
+    if sill_first:  # the door is on the right
         return [left, (k, c1, min(r0, r_floor), r1)]
     return [(c0, k, min(r0, r_floor), r1), right]

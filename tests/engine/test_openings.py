@@ -684,3 +684,54 @@ def test_office_doors_without_scanner_positions(synthetic_scene):
     ops = detect_openings(_runs(scene.truth), scene.truth.storeys, scene.cloud.xyz)
     p, r, werr = _scores([o for o in ops if o.type == ShapeType.DOOR], list(scene.truth.doors))
     assert p >= 0.95 and r >= 0.95 and werr <= 0.10, (p, r, werr)
+
+
+# ----------------------------------------------------------------------------- edges and splits
+def _face_and_reveal(face_from, reveal_at, n_reveal, seed=0):
+    """Points of a hole's right edge in a wall's (u, z) plane: face points from ``face_from``
+    to u = 2.4 (the hole to their left), ``n_reveal`` points inside the thickness at u =
+    ``reveal_at`` (σ 1 cm) and five inside points strewn over the window."""
+    rng = np.random.default_rng(seed)
+    fu = rng.uniform(face_from, 2.4, 3000)
+    ru = np.r_[rng.normal(reveal_at, 0.01, n_reveal), rng.uniform(1.65, 2.1, 5)]
+    coord = np.r_[fu, ru]
+    other = rng.uniform(0.2, 2.0, len(coord))
+    inside = np.r_[np.zeros(len(fu), bool), np.ones(len(ru), bool)]
+    return coord, other, inside
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_spilled_noise_in_a_running_face_is_no_jamb(seed):
+    """Six inside points in one window where the face runs on (a mobile scan's noise spilling
+    past the face tolerance) are no reveal: the edge is where the face ends (house_multi_height
+    mobile 4: a door 1.24 m wide for 1.0 m, on some machines); a jamb with its 40 points is."""
+    from engine.elements.gaps import hole_edge
+
+    coord, other, inside = _face_and_reveal(1.76, 2.01, 6, seed)
+    assert abs(hole_edge(coord, other, inside, 1.70, 2.10, 0.1, 2.1, False, 0.04) - 1.76) <= 0.03
+    coord, other, inside = _face_and_reveal(1.78, 1.78, 40, seed)
+    assert abs(hole_edge(coord, other, inside, 1.70, 2.10, 0.1, 2.1, False, 0.04) - 1.78) <= 0.02
+
+
+def test_a_door_beside_a_low_window_splits_despite_a_stray_column():
+    """A gap whose bottom is the floor over 18 columns and a 10 cm sill over the next 40 (a
+    terrace door beside a low window), one sill column reading the floor (a point under the
+    sill): two parts, cut where the floor ends. Before, any second change of the label kept
+    the gap whole (the Duplex without positions: one 5.7 m 'window', its door lost)."""
+    from types import SimpleNamespace
+
+    from engine.elements.sills import split_by_bottom
+
+    p = OpeningParams()
+    bottom = np.full(80, np.nan)
+    bottom[10:28], bottom[28:68] = 0.01, 0.10
+    bottom[45] = 0.01  # the stray
+    floor = np.where(bottom < p.min_sill, 1.0, 0.0)
+    dd = SimpleNamespace(bottom=bottom, floor=floor)
+    parts = split_by_bottom(dd, (10, 68, 3, 48), p)
+    assert len(parts) == 2, parts
+    assert parts[0][:2] == (10, 28) and parts[1][:2] == (28, 68)
+    assert parts[0][2] <= 2  # the door's part reaches down to the floor rows
+    bottom[40:50] = 0.01  # ten floor columns inside the sill's stretch: no single cut
+    assert split_by_bottom(SimpleNamespace(bottom=bottom, floor=np.where(bottom < p.min_sill, 1.0, 0.0)),
+                           (10, 68, 3, 48), p) == [(10, 68, 3, 48)]
