@@ -12,7 +12,7 @@ from scipy import ndimage
 
 from .params import OpeningParams
 
-__all__ = ["banded", "box_sum", "face_present", "observed_columns", "gap_rectangles", "hole_edge",
+__all__ = ["banded", "box_sum", "face_present", "mask_runs", "observed_columns", "gap_rectangles", "hole_edge",
            "near_points", "on_solid"]
 
 
@@ -38,7 +38,7 @@ def face_present(count: np.ndarray, params: OpeningParams) -> np.ndarray:
     return present
 
 
-def _runs(mask: np.ndarray, bridge: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def mask_runs(mask: np.ndarray, bridge: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Starts and stops of the runs of True in ``mask``, across breaks of at most ``bridge``."""
     idx = np.flatnonzero(mask)
     if not len(idx):
@@ -50,7 +50,7 @@ def _runs(mask: np.ndarray, bridge: int = 0) -> tuple[np.ndarray, np.ndarray]:
 def _longest_run(mask: np.ndarray, bridge: int = 0) -> tuple[int, int]:
     """[start, stop) of the longest run of True across breaks of at most ``bridge`` False
     (0, 0 when none)."""
-    a, b = _runs(mask, bridge)
+    a, b = mask_runs(mask, bridge)
     if not len(a):
         return 0, 0
     k = int(np.argmax(b - a))
@@ -69,7 +69,7 @@ def observed_columns(cols: list, run: int, window: int, ends: bool = False) -> l
     out = []
     for wv in wins:
         obs = np.zeros(len(wv), bool)
-        for a, b in zip(*_runs(wv >= max(3.0, 0.05 * ref), run)):
+        for a, b in zip(*mask_runs(wv >= max(3.0, 0.05 * ref), run)):
             obs[a:b] = True
         seen = np.flatnonzero(obs)
         if ends and len(seen):

@@ -23,7 +23,7 @@ from typing import Optional
 
 import numpy as np
 
-from .gaps import _runs
+from .gaps import mask_runs
 from .params import OpeningParams
 
 __all__ = ["flush_leaves"]
@@ -45,13 +45,14 @@ def _profile(x: np.ndarray, r: np.ndarray, lo: float, hi: float, span: int = 0) 
         r = np.tile(r, 2 * span + 1)
         r, k = r[(k >= 0) & (k < n)], k[(k >= 0) & (k < n)]
     cnt = np.bincount(k, minlength=n)
-    rs = r[np.lexsort((r, k))]
+    # one sort of bin + depth (the depths lie within ±0.5 m of the face): by bin, then depth
+    key = np.sort(k + (np.clip(r, -0.499, 0.499) + 0.5))
     start = np.r_[0, np.cumsum(cnt)[:-1]]
     a = start + np.maximum(cnt - 1, 0) // 2
     b = start + cnt // 2
     med = np.full(n, np.nan)
     ok = cnt > 0
-    med[ok] = 0.5 * (rs[a[ok]] + rs[np.minimum(b[ok], len(rs) - 1)])
+    med[ok] = 0.5 * (key[a[ok]] + key[np.minimum(b[ok], len(key) - 1)]) - np.flatnonzero(ok) - 0.5
     return med, cnt.astype(np.float64)
 
 
@@ -105,7 +106,7 @@ def _side(u: np.ndarray, z: np.ndarray, r: np.ndarray, length: float, z0: float,
     # candidates only (the rectangle's tests below decide): half the depth, two standard errors
     deep = (cnt >= 5) & (m >= p.flush_depth / 2) & (m * np.sqrt(np.maximum(cnt, 1.0)) >= 2.0 * _MED * sigma)
     out = []
-    for a, b in zip(*_runs(deep, bridge=1)):
+    for a, b in zip(*mask_runs(deep, bridge=1)):
         ua, ub = a * _BIN, b * _BIN
         if not p.min_door_width - 2 * _SPAN * _BIN <= ub - ua <= p.max_door_width + 2 * _SPAN * _BIN:
             continue
