@@ -114,18 +114,17 @@ def _side(u: np.ndarray, z: np.ndarray, r: np.ndarray, length: float, z0: float,
         ub = _step(ub_, rb_, ub, (_SPAN + 1) * _BIN, False)
         if not p.min_door_width <= ub - ua <= p.max_door_width:
             continue
-        o = _leaf(u, z, r, ua, ub, length, z0, z1, sigma, p)
+        o = _leaf(u, z, r, body, ua, ub, length, z0, z1, sigma, p)
         if o is not None:
             out.append(o)
     return out
 
 
-def _leaf(u, z, r, ua: float, ub: float, length: float, z0: float, z1: float, sigma: float,
+def _leaf(u, z, r, body, ua: float, ub: float, length: float, z0: float, z1: float, sigma: float,
           p: OpeningParams) -> Optional[dict]:
     """The door of a recess between ``ua`` and ``ub`` along the face, or None: flat face
     beside it (the reference depth) and a lintel above, the recess from the floor to a door's
-    height, deep and significant over all of it."""
-    body = (z > z0 + p.flush_body[0]) & (z < z0 + p.flush_body[1])
+    height, deep and significant over all of it. ``body``: the points at ``flush_body``."""
     flanks = []
     for lo, hi in ((ua - p.flush_flank - _BIN, ua - _BIN), (ub + _BIN, ub + p.flush_flank + _BIN)):
         if lo < 0.0 or hi > length:
