@@ -59,6 +59,7 @@ from ..pipeline import Prepared, align, full_cloud_normals, preprocess
 from ..pointcloud import PointCloud
 from ..progress import Progress
 from ..segmentation.params import PreprocessParams
+from .ends import UpperBand, free_wall_ends, heal_split_cells
 from .geometry import box_of
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
@@ -354,6 +355,14 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             raise ReconstructionError(f"storey {storey}: fewer than two wall surfaces facing "
                                       f"{'xy'[a]} (found {len(peaks)}); is the cloud aligned?")
         cuts.append(np.array(peaks))
+    upper = UpperBand(p, along, frame, params, spacing)
+    extra = free_wall_ends(p, along, p[on_ceiling[0]][:, :2] if on_ceiling else p[:0, :2], cuts, frame,
+                           params, upper)
+    for a in (0, 1):
+        if len(extra[a]):
+            log.info("storey %d: free wall ends cut %s at %s", storey, "xy"[a],
+                     np.round(np.sort(extra[a][:, 0]), 3).tolist())
+            cuts[a] = np.sort(np.r_[cuts[a], extra[a][:, 0]])
     X, Y, Z = cuts[0], cuts[1], zc
     nx, ny, nz = len(X) - 1, len(Y) - 1, len(Z) - 1
     log.info("storey %d: %d x %d x %d cuboids (x cuts %d, y cuts %d, z cuts %s)",
@@ -425,6 +434,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                     log=(f"place: cuboid ({i},{j},{k}) from histogram intervals "
                          f"x[{X[i]:.3f},{X[i + 1]:.3f}] y[{Y[j]:.3f},{Y[j + 1]:.3f}] z[{Z[k]:.3f},{Z[k + 1]:.3f}]",
                          line))
+    heal_split_cells(shapes, types, extra, X, Y, params)
     # wall junctions: a cuboid thin in both directions between walls (its faces are hidden
     # inside the walls, so its own index cannot be seen) continues them. Departure
     # from rule 2 of docs/method.md §2 (see the module docstring).
@@ -438,8 +448,9 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             shapes[(i, j, k)] = s.logged(f"classify: wall junction, {walls} neighbouring walls -> wall",
                                          type=ShapeType.WALL, terminal=True)
     doorway_tops(shapes, types, lowest, X, Y, params, spacing, margin)
-    wide_passages(shapes, types, params)
+    wide_passages(shapes, types, params, upper)
     enclosed_pockets(shapes, types, params)
+    wide_passages(shapes, types, params, upper)  # pockets turned interior can flank a passage too
     _open_voids(shapes, types, xyz, normals, frame, params)
     return [shapes[key] for key in sorted(shapes)]
 

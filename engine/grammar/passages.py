@@ -13,6 +13,9 @@ from .params import ManhattanParams
 
 __all__ = ["doorway_tops", "wide_passages", "enclosed_pockets"]
 
+_BEAM_SHARE = 0.25
+"""A wide passage's faces hold a surface near the ceiling along at least this share of it: a
+beam or a lintel over it (:func:`wide_passages`)."""
 _SIDES = ((2, 0, -1), (3, 1, 0), (4, 0, 1), (5, -1, 0))
 """Side faces of a cuboid: (face index, di, dj) of the neighbour across it."""
 
@@ -60,39 +63,77 @@ def doorway_tops(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndarray,
             "-> exterior (a doorway under a lintel)", type=ShapeType.EXTERIOR, terminal=True)
 
 
-def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams) -> None:
-    """Wide openings under a beam or a lintel (issue 19: open plans), in place.
+def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams, upper=None) -> None:
+    """Wide openings between two interiors (issue 19: open plans), in place.
 
-    A thin exterior cuboid on the floor, at least ``min_passage_width`` long, between two
-    interior cuboids across its thin axis, with the floor seen under it (IPoF(bottom) ≥ τ: no
-    wall stands there) and neither face to those rooms seen (IPoF < τ), is the passage
-    between two parts of one open plan — its top is a beam or a lintel, not a ceiling. It
-    becomes interior and joins the narrower side; its face toward the wider side is an open
-    boundary (``attributes["open_face"]``): the spaces split there ("split it at a beam")
-    and are connected without a wall (an IfcVirtualElement). Doors (narrower) keep their
-    rooms apart."""
+    Thin exterior cuboids on the floor, in a row along their long axis at least
+    ``min_passage_width`` long together, each between two interior cuboids across its thin
+    axis, with the floor seen under it (IPoF(bottom) ≥ τ: no wall stands there) and neither
+    face to those rooms seen (IPoF < τ), are a passage between two parts of an open plan.
+
+    * Something over it near the ceiling — its faces' plane holds a surface in at least
+      :data:`_BEAM_SHARE` of the bins along the row between 80 % and 95 % of the storey's
+      height (``upper``, :class:`.ends.UpperBand`: a beam's or a lintel's side) — or ``upper``
+      None: its top is a beam or a lintel, not a ceiling. Each cuboid becomes interior and
+      joins the narrower side (a hall, a corridor); its face toward the wider side is an open
+      boundary (``attributes["open_face"]``): the spaces split there ("split it at a beam") and
+      are connected without a wall (an IfcVirtualElement).
+    * Nothing: the strip of one room whose ceiling fell between a far scan's lines (the
+      Duplex's foyer beside its stair, seen from the far end: one ceiling point in 0.12 m²
+      where six were due); interior, with no boundary.
+
+    Doors (narrower) keep their rooms apart."""
     if params.min_passage_width <= 0:
         return
     tau = params.tau
-    for (i, j, k), s in list(shapes.items()):
+    cand = {}
+    for (i, j, k), s in shapes.items():
         ax = s.attributes["thin_axis"]
         if k != 0 or s.type != ShapeType.EXTERIOR or ax not in (0, 1):
             continue
-        size = s.geometry.bounds[1] - s.geometry.bounds[0]
         faces = (5, 3) if ax == 0 else (2, 4)
         nb = [(i - 1, j, k), (i + 1, j, k)] if ax == 0 else [(i, j - 1, k), (i, j + 1, k)]
-        if size[1 - ax] < params.min_passage_width or s.support.get("ipof_bottom", 0.0) < tau or \
+        if s.support.get("ipof_bottom", 0.0) < tau or \
                 any(s.support.get(f"ipof_f{q}", 1.0) >= tau for q in faces) or \
                 not all(q in shapes and types[q] == ShapeType.INTERIOR for q in nb):
             continue
-        # it joins the narrower side (a hall, a corridor); the open boundary is toward the wider
-        wide = int(np.argmax([float(np.ptp(shapes[q].geometry.bounds[:, ax])) for q in nb]))
-        types[i, j, k] = ShapeType.INTERIOR
-        shapes[(i, j, k)] = s.logged(
-            f"classify: {size[1 - ax]:.2f} m wide passage between two interiors, floor seen "
-            f"(IPoF(bottom)={s.support['ipof_bottom']:.2f}), no wall -> interior, open to {shapes[nb[wide]].id}",
-            type=ShapeType.INTERIOR, terminal=False,
-            attributes={**s.attributes, "open_face": faces[wide]})
+        cand[i, j] = (ax, faces, nb)
+    done = set()
+    for (i, j) in sorted(cand):
+        if (i, j) in done:
+            continue
+        ax = cand[i, j][0]
+        step = (0, 1) if ax == 0 else (1, 0)
+        row = [(i, j)]
+        while (nxt := (row[-1][0] + step[0], row[-1][1] + step[1])) in cand and cand[nxt][0] == ax:
+            row.append(nxt)
+        done.update(row)
+        lo = shapes[row[0] + (0,)].geometry.bounds[0]
+        hi = shapes[row[-1] + (0,)].geometry.bounds[1]
+        long_ax = 1 - ax
+        if hi[long_ax] - lo[long_ax] < params.min_passage_width:
+            continue
+        beam = 1.0 if upper is None else max(upper.share(ax, float(w), float(lo[long_ax]), float(hi[long_ax]))
+                                             for w in (lo[ax], hi[ax]))
+        for q in row:
+            s, (_, faces, nb) = shapes[q + (0,)], cand[q]
+            types[q + (0,)] = ShapeType.INTERIOR
+            if beam < _BEAM_SHARE:
+                shapes[q + (0,)] = s.logged(
+                    f"classify: {hi[long_ax] - lo[long_ax]:.2f} m long strip between two interiors, "
+                    f"floor seen (IPoF(bottom)={s.support['ipof_bottom']:.2f}), no wall, nothing over it "
+                    "near the ceiling "
+                    f"({beam:.2f} of its length) -> interior (one room; its ceiling fell between scan lines)",
+                    type=ShapeType.INTERIOR, terminal=False)
+                continue
+            # it joins the narrower side (a hall, a corridor); the open boundary is toward the wider
+            wide = int(np.argmax([float(np.ptp(shapes[n].geometry.bounds[:, ax])) for n in nb]))
+            shapes[q + (0,)] = s.logged(
+                f"classify: {hi[long_ax] - lo[long_ax]:.2f} m wide passage between two interiors, floor seen "
+                f"(IPoF(bottom)={s.support['ipof_bottom']:.2f}), no wall, a beam or lintel over it "
+                f"({beam:.2f} of its length near the ceiling) -> interior, open to {shapes[nb[wide]].id}",
+                type=ShapeType.INTERIOR, terminal=False,
+                attributes={**s.attributes, "open_face": faces[wide]})
 
 
 def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -> None:

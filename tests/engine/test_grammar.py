@@ -369,6 +369,56 @@ def test_wide_passage_joins_rooms(length, bottom, face, expect):
     assert shapes[(0, 1, 0)].type == E
 
 
+def _two_columns(lengths, bottom=0.99):
+    """Two columns of :func:`_row_of_cuboids` side by side along x (cut at a stair's side)."""
+    from engine.grammar.geometry import box_of
+
+    I, E = ShapeType.INTERIOR, ShapeType.EXTERIOR
+    shapes, grid = {}, np.empty((2, 3, 1), dtype=object)
+    x0 = 0.0
+    for i, ln in enumerate(lengths):
+        sub, g = _row_of_cuboids((4.0, 0.12, 1.5), ln, bottom, {2: 0.0, 4: 0.0}, (I, E, I))
+        for (_, j, k), sh in sub.items():
+            b = sh.geometry.bounds
+            shapes[(i, j, k)] = sh.__class__(**{**sh.__dict__, "id": f"c{i}{j}", "grid": (i, j, k),
+                                                "geometry": box_of((x0, b[0][1], 0), (x0 + ln, b[1][1], 2.5))})
+            grid[i, j, k] = g[0, j, k]
+        x0 += ln
+    return shapes, grid
+
+
+@pytest.mark.parametrize("beam, lengths, expect_open", [
+    (True, (1.0, 1.05), True),     # a row of two cuboids 2.05 m long under a beam: split at the beam
+    (False, (1.0, 1.05), False),   # nothing near the ceiling (Duplex TLS foyer): one room, no boundary
+    (False, (0.9,), None),         # a door's width: stays exterior
+])
+def test_wide_passage_row_and_beam(beam, lengths, expect_open):
+    from engine.grammar.ends import UpperBand
+    from engine.grammar.passages import wide_passages as _wide_passages
+    from engine.grammar.place import StoreyFrame
+
+    shapes, types = _two_columns(lengths)
+    rng = np.random.default_rng(0)
+    pts = [np.column_stack([rng.uniform(0, 2.05, 2000), rng.uniform(0, 9, 2000), np.full(2000, 0.0)])]
+    normal_y = []
+    if beam:  # a 0.25 m downstand: its two faces at y = 4.0 and 4.12, from 2.25 to 2.5 m
+        for y in (4.0, 4.12):
+            pts.append(np.column_stack([rng.uniform(0, 2.05, 600), np.full(600, y), rng.uniform(2.25, 2.5, 600)]))
+            normal_y.append(len(pts) - 1)
+    p = np.vstack(pts)
+    kind = np.concatenate([np.full(len(q), 1 if k in normal_y else 2) for k, q in enumerate(pts)])
+    params = ManhattanParams(shape_buffer=0.03, spacing=0.03, noise=0.005, bin_size=0.02)
+    upper = UpperBand(p, [kind == 0, kind == 1, kind == 2], StoreyFrame(0.0, (2.5,)), params, 0.03)
+    _wide_passages(shapes, types, params, upper)
+    for i in range(len(lengths)):
+        s = shapes[(i, 1, 0)]
+        if expect_open is None:
+            assert s.type == ShapeType.EXTERIOR
+            continue
+        assert s.type == ShapeType.INTERIOR and types[i, 1, 0] == ShapeType.INTERIOR
+        assert ("open_face" in s.attributes) == expect_open, s.log[-1]
+
+
 @pytest.mark.parametrize("width, bottom, ends, room, expect", [
     (0.6, 0.18, 0.27, ShapeType.INTERIOR, ShapeType.INTERIOR),  # Duplex TLS: strip beside a stair void
     (0.6, 0.18, 0.0, ShapeType.INTERIOR, ShapeType.EXTERIOR),   # an end open to the outside

@@ -122,6 +122,25 @@ def test_duplex_no_extra_spaces(noise):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("noise", ["tls", "mobile"])
+def test_duplex_open_plan_is_one_space(noise):
+    # each flat's living room and kitchen open onto the foyer past a partition that stops 2.8 m
+    # short; the grid had no cut where it stops, so its cuboid ran on as a wall and the foyer
+    # was a space of its own (17 and 16 spaces for 14 rooms, TLS / mobile, seeds 2-5); with a cut
+    # at the wall's free end (engine.grammar.ends) one space holds all three: 0.99-1.00 of the
+    # foyer's and the kitchen's area on seed 2 (0.00 of the foyer's before), 14 spaces
+    sc, m, r = _run("duplex", noise)
+    for living in (s for s in sc.truth.spaces if s.name == "Living Room"):
+        lp = _plan(living, sc.truth)
+        space = _plan(max(m.spaces, key=lambda s: _plan(s, m).intersection(lp).area), m)
+        for t in sc.truth.spaces:
+            tp = _plan(t, sc.truth)
+            if t.name in ("Kitchen", "Foyer") and tp.distance(lp) < 0.5:
+                assert space.intersection(tp).area >= 0.9 * tp.area, (t.name, t.id)
+    assert len(m.spaces) <= r["true"] + 1, (len(m.spaces), r["true"])  # 14 of 14 measured
+
+
+@pytest.mark.slow
 def test_duplex_iou_and_envelope():
     sc, m, r = _run("duplex")
     # targets: mean IoU >= 0.9 (seeds 0, 1: 0.95, 0.94), nothing outside the envelope (0 m²)
