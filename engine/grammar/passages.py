@@ -26,8 +26,12 @@ def doorway_tops(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndarray,
 
     A thin interior cuboid on the floor in the middle of a wall run (a wall part of that run
     at one end along it, a part or a junction at the other: a sliver between two close cuts
-    ends at junctions), both its long faces unseen (a gap through the wall), is a doorway
-    under a lintel unless the ceiling runs on over it. A ceiling's points
+    ends at junctions; or a thin exterior cuboid with both long faces unseen and a wall after
+    it: a doorway cut in two by a cross wall's plane), both its long faces unseen (a gap
+    through the wall), is a doorway under a lintel unless the ceiling runs on over it; a cuboid
+    thin both ways (a junction's size) is taken along whichever line its neighbours make
+    (two_storey_office mobile 3: a door cut at 10.1 m, its 22 cm piece typed interior from the
+    ceiling's noise, joined a room and the corridor). A ceiling's points
     near a wall, pushed along their shallow rays by the range noise (about twice the surface
     noise measured across a surface), fall into the wall's footprint at the ceiling's height
     from both sides and covered the doorway's top between the margins (Duplex, 1M mobile
@@ -36,15 +40,33 @@ def doorway_tops(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndarray,
     discs and sparse (``ceiling_reach``) alike: under τ both, it is exterior (the wall's
     door is found in it). ``uv`` : (n, 2) the lowest ceiling's points, metres."""
     tau, reach = params.tau, params.ceiling_reach * spacing
+
+    def unseen(q, ax):  # both long faces of cuboid q across axis ax unseen
+        return all(shapes[q].support.get(f"ipof_f{f}", 1.0) < tau for f in ((3, 5) if ax == 0 else (2, 4)))
+
+    def wall_end(q, step, ax):  # the wall ending the run there (after a doorway's cuboid), or None
+        if q not in shapes or shapes[q].attributes["thin_axis"] not in (ax, 2):
+            return None
+        if types[q] == ShapeType.WALL:
+            return q
+        nxt = (q[0] + step[0], q[1] + step[1], q[2])
+        if types[q] == ShapeType.EXTERIOR and unseen(q, ax) and nxt in shapes and \
+                types[nxt] == ShapeType.WALL and shapes[nxt].attributes["thin_axis"] in (ax, 2):
+            return nxt
+        return None
+
     for (i, j, k), s in list(shapes.items()):
-        ax = s.attributes["thin_axis"]
-        if k != 0 or s.type != ShapeType.INTERIOR or ax not in (0, 1) or \
+        thin = s.attributes["thin_axis"]
+        if k != 0 or s.type != ShapeType.INTERIOR or thin not in (0, 1, 2) or \
                 ((i, j, 1) in shapes and types[i, j, 1] == ShapeType.INTERIOR):
             continue
-        run = [(i, j - 1, k), (i, j + 1, k)] if ax == 0 else [(i - 1, j, k), (i + 1, j, k)]
-        if not all(q in shapes and types[q] == ShapeType.WALL and shapes[q].attributes["thin_axis"] in (ax, 2)
-                   for q in run) or not any(shapes[q].attributes["thin_axis"] == ax for q in run) or \
-                any(s.support.get(f"ipof_f{q}", 1.0) >= tau for q in ((3, 5) if ax == 0 else (2, 4))):
+        # a junction-sized cuboid (thin both ways) lies in whichever line its neighbours make
+        for ax in ((thin,) if thin != 2 else (0, 1)):
+            steps = [(0, -1), (0, 1)] if ax == 0 else [(-1, 0), (1, 0)]
+            ends = [wall_end((i + di, j + dj, k), (di, dj), ax) for di, dj in steps]
+            if all(ends) and any(shapes[q].attributes["thin_axis"] == ax for q in ends) and unseen((i, j, k), ax):
+                break
+        else:
             continue
         lo, hi = np.array([X[i], Y[j]]) - 2 * reach, np.array([X[i + 1], Y[j + 1]]) + 2 * reach
         near = uv[(uv >= lo).all(axis=1) & (uv <= hi).all(axis=1)]

@@ -569,3 +569,40 @@ def test_a_storey_without_a_ceiling_level_keeps_the_preprocessings_top():
     fr = given_frame([Level(4.0, 3.0, 1.0, 0.2)], (2.700, 6.031), params)
     assert fr.floor == pytest.approx(2.700)
     assert given_frame([floor], (2.700, 2.700 + 0.9 * params.min_storey_height), params) is None
+
+
+@pytest.mark.parametrize("ceiling_over_it, expect", [
+    (False, ShapeType.EXTERIOR),  # only the ceiling's noise near the wall's faces: part of the doorway
+    (True, ShapeType.INTERIOR),   # the ceiling runs on over it: not under a lintel
+])
+def test_doorway_cut_in_two_by_a_cross_wall_plane(ceiling_over_it, expect):
+    """two_storey_office mobile 3: a door in the corridor wall (y 1.9..2.1) cut at x = 10.1 by
+    the plane of a wall of the storey's other side; the 22 cm piece, thin both ways, had its top
+    covered by ceiling points pushed into the wall's footprint (0.70) and joined the corridor and
+    the room; the other piece was the doorway (exterior), then the wall runs on."""
+    from engine.grammar.geometry import box_of
+    from engine.grammar.passages import doorway_tops
+    from engine.model import Shape
+
+    X, Y = np.array([9.51, 9.88, 10.1, 10.52, 13.9]), np.array([0.1, 1.9, 2.1, 6.9])
+    I, E, W = ShapeType.INTERIOR, ShapeType.EXTERIOR, ShapeType.WALL
+    line = [(W, 2, 0.9), (I, 2, 0.23), (E, 2, 0.25), (W, 1, 0.9)]  # type, thin axis, faces toward y
+    shapes, types = {}, np.empty((4, 3, 1), dtype=object)
+    for i in range(4):
+        for j in range(3):
+            t, thin, face = line[i] if j == 1 else (I, None, 0.0)
+            sup = {f"ipof_f{q}": 0.0 for q in range(6)}
+            sup.update(ipof_f2=face, ipof_f4=face, ipof_f0=1.0, ipof_f1=0.7 if j == 1 else 1.0)
+            shapes[i, j, 0] = Shape(id=f"c{i}{j}", type=t, grid=(i, j, 0), support=sup,
+                                    geometry=box_of((X[i], Y[j], 0), (X[i + 1], Y[j + 1], 2.8)),
+                                    attributes={"thin_axis": thin})
+            types[i, j, 0] = t
+    step = 0.03
+    u, v = np.meshgrid(np.arange(9.51, 13.9, step), np.arange(0.1, 6.9, step), indexing="ij")
+    uv = np.column_stack([u.ravel(), v.ravel()])
+    if not ceiling_over_it:  # over the wall line only what the noise pushed 4 cm past its faces
+        uv = uv[(uv[:, 1] < 1.94) | (uv[:, 1] > 2.06)]
+    params = ManhattanParams(max_wall_thickness=0.5, shape_buffer=0.05, spacing=step, noise=0.02, bin_size=0.02)
+    doorway_tops(shapes, types, uv, X, Y, params, step, 2 * 0.02)
+    assert types[1, 1, 0] == expect and shapes[1, 1, 0].type == expect
+    assert types[2, 1, 0] == E and types[0, 1, 0] == W  # the rest of the line as it was
