@@ -8,7 +8,8 @@ The spaces of a storey are footprints in plan; a wall is what lies between them.
    ``parallel_angle``, ``min_thickness`` to ``max_thickness`` apart, overlapping along
    their length) bound an interior wall piece over the overlap: its axis is the mid-line,
    its thickness the measured gap. Faces closer than ``min_thickness`` meet without a wall
-   (an open plan);
+   (an open plan). Two edges of one space facing each other across a wall's thickness are a
+   partition standing free in it: a wall piece with that space on both sides;
 3. what is left of an edge, facing no space within ``max_thickness``, is an exterior wall
    piece of ``exterior_thickness`` outside the face;
 4. collinear pieces of about the same thickness and kind that overlap or are separated by
@@ -198,12 +199,17 @@ def _pieces(footprints: dict, prm: WallRunParams, measured=None, breaks=(), soli
     qi, qj = tree.query(lines, predicate="dwithin", distance=reach)
     thick = []  # (gap, i, j): facing edges farther apart than max_thickness, tested below
     for i, j in zip(qi.tolist(), qj.tolist()):
-        if i >= j or owner[i] == owner[j]:
+        if i >= j:
             continue
         if float(D[i] @ D[j]) > -cos_par:
             continue
         s = float(N[i] @ (0.5 * (P[j] + Q[j]) - P[i]))  # gap from edge i outward to edge j
         if s > reach or s < -prm.min_thickness:
+            continue
+        # two edges of one space facing each other across a wall's thickness: a partition
+        # standing free in it (the Duplex's stub between the living room and the foyer, one
+        # open plan past its end) — a wall with that space on both sides
+        if owner[i] == owner[j] and not prm.min_thickness <= s <= prm.max_thickness:
             continue
         u_a, u_b = float(D[i] @ (P[j] - P[i])), float(D[i] @ (Q[j] - P[i]))
         u0, u1 = max(0.0, min(u_a, u_b)), min(L[i], max(u_a, u_b))

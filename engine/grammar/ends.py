@@ -37,6 +37,9 @@ _MIN_WALL = 0.2
 _FLOOR_SHARE = 0.5
 """The floor is seen along at least this share of an open stretch: it is inside the storey;
 and the ceiling beside the wall's end on both sides of its plane."""
+_JUNCTION_POINTS = 3
+"""A wall across the line in the first metre past an end, near the ceiling, holds at least this
+many points: the end is a junction."""
 _CEILING_SPAN = 1.0
 """Metres past a wall's end over which the ceiling must run on, on both sides of its plane."""
 _CEILING_REACH = 0.3
@@ -77,6 +80,13 @@ class UpperBand:
         :data:`_MIN_COUNT` points)."""
         return np.histogram(self.along(a, w), edges)[0] >= _MIN_COUNT
 
+    def count(self, a: int, lo: float, hi: float, u_lo: float, u_hi: float) -> int:
+        """Points facing axis ``a`` whose position on it lies in [lo, hi] and along their plane
+        in [u_lo, u_hi]."""
+        t, u = self._axes[a]
+        i0, i1 = np.searchsorted(t, [lo, hi])
+        return int(((u[i0:i1] >= u_lo) & (u[i0:i1] <= u_hi)).sum())
+
     def share(self, a: int, w: float, lo: float, hi: float) -> float:
         """Share of the bins of [lo, hi] along the plane that hold a surface."""
         n = max(int(round((hi - lo) / self.bin)), 1)
@@ -110,8 +120,10 @@ def free_wall_ends(p: np.ndarray, along: list, ceiling: np.ndarray, cuts: list, 
     both sides of the wall: ceiling and floor points in at least half of the ``level_cell``
     bins of the first metre past the end, in 30 cm bands beyond its outer faces (no beam or
     lintel over the line, no stair void or unscanned room on one side, not outside an
-    exterior wall's glazing). That end (the wall's last point) is a cut across the other axis
-    unless a cut lies within ``max_wall_thickness`` / 2 of it already.
+    exterior wall's glazing), with no wall across the line there (points facing the other axis
+    near the ceiling within 30 cm beside the wall's faces, clear of its own end face: a
+    junction whose corner spoilt the wall's normals, a corridor crossing the line). That end (the wall's last point) is a cut across
+    the other axis unless a cut lies within ``max_wall_thickness`` / 2 of it already.
     """
     out = [[], []]
     width = params.min_passage_width
@@ -174,6 +186,14 @@ def free_wall_ends(p: np.ndarray, along: list, ceiling: np.ndarray, cuts: list, 
                         span = (max(pos - _CEILING_SPAN, float(edges[r0])), pos)
                     if min(_two_sided_share(ceiling, a, faces, span, params.level_cell),
                            _two_sided_share(floor_xy, a, faces, span, params.level_cell)) < _FLOOR_SHARE:
+                        continue
+                    # a wall across the line there: a junction (the wall's last metre hidden from
+                    # its normals by the corner), not a free end (a corridor crossing the line)
+                    # (beside the wall's thickness, clear of its own end face)
+                    lo_o, hi_o = (pos + 2 * d, span[1]) if side < 0 else (span[0], pos - 2 * d)
+                    across = upper.count(o, lo_o, hi_o, faces[0] - _CEILING_REACH, faces[0]) + \
+                        upper.count(o, lo_o, hi_o, faces[1], faces[1] + _CEILING_REACH)
+                    if across >= _JUNCTION_POINTS:
                         continue
                     near = np.r_[other, [e[0] for e in out[o]]]
                     if np.abs(near - pos).min() > t_max / 2:

@@ -214,6 +214,15 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -
                 across = [(i, j - 1, 0), (i, j + 1, 0)] if di else [(i - 1, j, 0), (i + 1, j, 0)]
                 if (i, j) in gaps and size[1 if di else 0] <= t_max and any(seen(a, f) for a in across):
                     continue
+                # a gap in a wall line between two wall parts, toward a cuboid whose floor was
+                # never seen: no scan looked through it, so it is the wall's unseen stretch (the
+                # Duplex's hallway by its stair, TLS: beside a closet no scanner entered)
+                line = [(i, j - 1, 0), (i, j + 1, 0)] if di else [(i - 1, j, 0), (i + 1, j, 0)]
+                if (i, j) in gaps and size[0 if di else 1] <= t_max and \
+                        all(a in shapes and types[a] == ShapeType.WALL for a in line) and \
+                        0 <= q[0] < nx and 0 <= q[1] < ny and \
+                        shapes[q + (0,)].support.get("ipof_bottom", 0.0) <= params.min_room_evidence:
+                    continue
                 inside.discard((i, j))
                 changed = True
                 break

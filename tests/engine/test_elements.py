@@ -263,6 +263,22 @@ def test_a_room_reaching_into_its_wall_along_a_doorway_gives_one_wall():
     assert inner[0].thickness == pytest.approx(0.2, abs=0.01) and inner[0].length == pytest.approx(3.8, abs=0.1)
 
 
+def test_a_partition_standing_free_in_one_space_is_a_wall():
+    """One space wrapping round a 0.12 m partition that stops 3 m short of the far wall (the
+    Duplex's living room and foyer, one open plan past the partition's end): the partition's
+    two sides are edges of that one space facing each other; it is a wall with the space on
+    both sides (it was dropped: the terrace door beside it lost the wall its shadow test
+    needs, and the IFC a real wall). A slit wider than max_thickness is no wall."""
+    for gap, walls in ((0.12, 1), (0.9, 0)):
+        fps = {"a": [(0, 0), (3, 0), (3, 4), (3 + gap, 4), (3 + gap, 0), (6, 0), (6, 7), (0, 7)]}
+        runs, _ = _runs(fps)
+        inner = [r for r in runs if not r.external]
+        assert len(inner) == walls, (gap, [(r.a, r.b, r.thickness) for r in inner])
+        if walls:
+            assert inner[0].thickness == pytest.approx(gap, abs=0.005) and inner[0].length == pytest.approx(4, abs=0.05)
+            assert list(inner[0].sides()) == ["a", "a"]
+
+
 def test_a_floor_to_ceiling_break_ends_the_wall_and_the_rooms_meet_there():
     """An 8 m partition interrupted over x 3–5.5 (a gap from floor to ceiling): two runs that
     stop at the break, and the two rooms meet without a wall there (an open plan)."""

@@ -226,7 +226,11 @@ def test_a_hallway_strip_between_a_far_scans_lines_is_the_hallways(results):
     c = r["connectivity"]
     edges = [{names.get(a, a), names.get(b, b)} for a, b in c["missing"] + c["extra"]]
     assert {"Bedroom 2W", "HallwayW"} not in edges and {"Bedroom 2W", "exterior_s2"} not in edges, edges
-    assert r["spaces"]["mean_iou"] >= 0.955, r["spaces"]["mean_iou"]  # measured 0.958 (0.950 before)
+    # the east hallway's end by its stair: closed on its west by a wall stretch no scan saw, with
+    # a closet behind it that no scanner entered; it counted as a gap leading outside, and the
+    # bedroom's door into the hallway led outside (engine.grammar.passages.enclosed_pockets)
+    assert {"Bedroom 2E", "HallwayE"} not in edges and {"Bedroom 2E", "exterior_s2"} not in edges, edges
+    assert r["spaces"]["mean_iou"] >= 0.955, r["spaces"]["mean_iou"]  # measured 0.967 (0.950, 0.958 before)
 
 
 @pytest.mark.slow

@@ -606,3 +606,34 @@ def test_doorway_cut_in_two_by_a_cross_wall_plane(ceiling_over_it, expect):
     doorway_tops(shapes, types, uv, X, Y, params, step, 2 * 0.02)
     assert types[1, 1, 0] == expect and shapes[1, 1, 0].type == expect
     assert types[2, 1, 0] == E and types[0, 1, 0] == W  # the rest of the line as it was
+
+
+@pytest.mark.parametrize("closet_floor, expect", [(0.0, ShapeType.INTERIOR), (0.5, ShapeType.EXTERIOR)])
+def test_a_pocket_beside_an_unseen_closet_is_closed_by_the_wall_between(closet_floor, expect):
+    """The Duplex, TLS, seed 3, level 2: the hallway's end by the stair (a 0.54 m strip, its
+    ceiling between a far scan's lines) is closed on one side by a wall whose 13 cm stretch
+    there no scan saw (both faces unseen), with a closet no scanner entered behind it; the
+    stretch counted as a gap leading outside, the strip stayed exterior and the bedroom's door
+    into the hallway led outside. A gap between two wall parts toward a cuboid whose floor was
+    never seen closes the pocket; toward one whose floor was seen (looked into) it does not."""
+    from engine.grammar.geometry import box_of
+    from engine.grammar.passages import enclosed_pockets
+    from engine.model import Shape
+
+    X, Y = np.array([0.0, 1.52, 1.65, 3.61]), np.array([0.0, 0.11, 0.65, 4.65])
+    I, E, W = ShapeType.INTERIOR, ShapeType.EXTERIOR, ShapeType.WALL
+    kinds = {(0, 0): W, (1, 0): W, (2, 0): W, (0, 1): E, (1, 1): E, (2, 1): E, (0, 2): I, (1, 2): W, (2, 2): I}
+    faces = {(2, 1): dict(ipof_f2=0.56, ipof_f3=0.30, ipof_f4=0.0, ipof_f5=0.01, ipof_bottom=0.22, ipof_top=0.09),
+             (1, 1): dict(ipof_bottom=0.0, ipof_top=0.0),
+             (0, 1): dict(ipof_bottom=closet_floor, ipof_top=0.1, ipof_f2=0.5, ipof_f4=0.9, ipof_f5=0.0)}
+    shapes, types = {}, np.empty((3, 3, 1), dtype=object)
+    for (i, j), t in kinds.items():
+        sup = {f"ipof_f{q}": 0.0 for q in range(2, 6)}
+        sup.update(faces.get((i, j), {"ipof_bottom": 0.9, "ipof_top": 0.9}))
+        thin = 0 if i == 1 else (1 if j == 0 else None)
+        shapes[i, j, 0] = Shape(id=f"c{i}{j}", type=t, grid=(i, j, 0), support=sup,
+                                geometry=box_of((X[i], Y[j], 0), (X[i + 1], Y[j + 1], 2.6)),
+                                attributes={"thin_axis": thin})
+        types[i, j, 0] = t
+    enclosed_pockets(shapes, types, ManhattanParams(max_wall_thickness=0.3, shape_buffer=0.05))
+    assert types[2, 1, 0] == expect and shapes[2, 1, 0].type == expect
