@@ -115,15 +115,16 @@ def free_wall_ends(p: np.ndarray, along: list, ceiling: np.ndarray, cuts: list, 
     (:class:`UpperBand`) is binned along it, and a bin with a point on any face is surface (a
     face in a shelf's or a scanner's shadow is no end). A run of bins without surface at
     least ``min_passage_width`` long, with floor points along at least half of it within
-    ``max_wall_thickness`` of the plane, ends the wall on each side where a surface of at
+    ``max_wall_thickness`` of its mid-plane, ends the wall on each side where a surface of at
     least 20 cm (half of its bins surface) borders it and the storey runs on past the end on
     both sides of the wall: ceiling and floor points in at least half of the ``level_cell``
     bins of the first metre past the end, in 30 cm bands beyond its outer faces (no beam or
     lintel over the line, no stair void or unscanned room on one side, not outside an
     exterior wall's glazing), with no wall across the line there (points facing the other axis
     near the ceiling within 30 cm beside the wall's faces, clear of its own end face: a
-    junction whose corner spoilt the wall's normals, a corridor crossing the line). That end (the wall's last point) is a cut across
-    the other axis unless a cut lies within ``max_wall_thickness`` / 2 of it already.
+    junction whose corner spoilt the wall's normals, a corridor crossing the line). That end
+    (the wall's last point) is a cut across the other axis unless a cut lies within
+    ``max_wall_thickness`` / 2 of it already.
     """
     out = [[], []]
     width = params.min_passage_width
@@ -147,19 +148,17 @@ def free_wall_ends(p: np.ndarray, along: list, ceiling: np.ndarray, cuts: list, 
         ft = p[fsel, a]
         floor_xy = p[fsel, :2]
         planes = np.asarray(cuts[a], dtype=np.float64)
-        occ_of, u_of = {}, {}
-        for q, w in enumerate(planes):
-            u_of[q] = upper.along(a, w)
-            occ_of[q] = np.histogram(u_of[q], edges)[0] >= _MIN_COUNT
+        u_of = [upper.along(a, w) for w in planes]
         # a wall's faces: the planes chained at most a wall thickness apart; open where none has
         # surface (one face hidden behind a shelf or in a scanner's shadow is no end)
         chain = np.r_[0, np.cumsum(np.diff(planes) > t_max)]
-        for q, w in enumerate(planes):
-            if not occ_of[q].any():
+        for g in range(int(chain[-1]) + 1 if len(planes) else 0):
+            group = np.flatnonzero(chain == g)
+            u = np.concatenate([u_of[q] for q in group])
+            if not len(u):
                 continue
-            group = np.flatnonzero(chain == chain[q])
-            occ = np.logical_or.reduce([occ_of[g] for g in group])
-            u = np.concatenate([u_of[g] for g in group])
+            occ = np.histogram(u, edges)[0] >= _MIN_COUNT
+            w = float(planes[group].mean())
             faces = (float(planes[group].min()) - d, float(planes[group].max()) + d)
             starts, stops = mask_runs(~occ)
             fl = None
@@ -187,9 +186,9 @@ def free_wall_ends(p: np.ndarray, along: list, ceiling: np.ndarray, cuts: list, 
                     if min(_two_sided_share(ceiling, a, faces, span, params.level_cell),
                            _two_sided_share(floor_xy, a, faces, span, params.level_cell)) < _FLOOR_SHARE:
                         continue
-                    # a wall across the line there: a junction (the wall's last metre hidden from
-                    # its normals by the corner), not a free end (a corridor crossing the line)
-                    # (beside the wall's thickness, clear of its own end face)
+                    # a wall across the line there, beside the wall's faces and clear of its own
+                    # end face: a junction (the corner spoilt the wall's normals near it) or a
+                    # corridor crossing the line, not a free end
                     lo_o, hi_o = (pos + 2 * d, span[1]) if side < 0 else (span[0], pos - 2 * d)
                     across = upper.count(o, lo_o, hi_o, faces[0] - _CEILING_REACH, faces[0]) + \
                         upper.count(o, lo_o, hi_o, faces[1], faces[1] + _CEILING_REACH)

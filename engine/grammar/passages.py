@@ -64,7 +64,8 @@ def doorway_tops(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndarray,
         for ax in ((thin,) if thin != 2 else (0, 1)):
             steps = [(0, -1), (0, 1)] if ax == 0 else [(-1, 0), (1, 0)]
             ends = [wall_end((i + di, j + dj, k), (di, dj), ax) for di, dj in steps]
-            if all(ends) and any(shapes[q].attributes["thin_axis"] == ax for q in ends) and unseen((i, j, k), ax):
+            if all(ends) and unseen((i, j, k), ax) and \
+                    any(shapes[q].attributes["thin_axis"] == ax for q in ends):
                 break
         else:
             continue
