@@ -40,7 +40,7 @@ from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, nea
                    on_solid)
 from .leaves import flush_leaves
 from .params import OpeningParams
-from .sills import low_quantile, split_by_bottom
+from .sills import level_sill, low_quantile, split_by_bottom
 from .viewpoints import group_members
 
 __all__ = ["OpeningParams", "detect_openings"]
@@ -438,6 +438,8 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
         if len(seen) >= (p.min_sill_columns if low_hole else max(2, 0.5 * len(cols))):
             if float(np.median(seen)) >= p.min_sill:
                 floor_reach, eb = False, z0 + float(np.median(seen))
+        elif (sill := level_sill(cols, dd.floor[ia:ib], p)) is not None:  # a sparse scan's sill
+            floor_reach, eb = False, z0 + sill
         elif ib - ia > 2 and float((dd.low_face[ia + 1:ib - 1] > 0).mean()) >= 0.6:
             # the sill's top unseen, its face seen right above the floor all along the hole
             top = hole_edge(fz, fu, fin, z0, zb + c, el + 0.05, er - 0.05, True)

@@ -71,7 +71,11 @@ class OpeningParams:
     or more is a window with that sill, not a door, metres."""
     min_sill_columns: Count = 3
     """A floor-reaching gap lower than a door is a window when its sill's top is seen in
-    this many columns (a taller gap needs half its columns), cells."""
+    this many columns (a taller gap needs half its columns, or this many at one level and
+    the floor seen in none: :func:`engine.elements.sills.level_sill`), cells."""
+    sill_level: Metres = 0.03
+    """The sill's top seen in a few columns of a tall gap is one level: within this of its
+    median, metres."""
     ceiling_tolerance: Metres = 0.15
     """A gap ending this close to the ceiling reaches the ceiling, metres."""
     min_head: Metres = 0.05

@@ -279,6 +279,37 @@ def test_a_tall_window_with_a_low_sill_is_a_window_not_a_door(rays, sill):
     assert abs(a["width"] - 0.8) <= 0.05
 
 
+def _sparse_far_hole(hole, keep: float, seed: int, rays: bool, glass: bool):
+    """Openings of a ``hole`` in a 0.3 m exterior wall of an 8 m deep room, scanned once from
+    its far end (7.5 m away: the floor and a sill's top at a grazing angle) and thinned at
+    random to ``keep`` of the points (a sparse scan, as real ones are)."""
+    outside = [((-5.0, -6.2, 0.0), (L + 5.0, -6.0, 8.0)), ((-5.0, -6.0, -0.2), (L + 5.0, -T_EXT / 2, 0.0))]
+    boxes = _room(T_EXT / 2, 8.0) + _holed_wall(T_EXT, hole) + outside
+    walls = [_wall("w_ext", 0.0, 0.0, L, T_EXT, ("room_a", None), True)]
+    xyz, idx, pos = _scan(boxes, [(2.5, 7.5, 1.5)], glass=hole if glass else None)
+    k = np.random.default_rng(seed).random(len(xyz)) < keep
+    ops = detect_openings(walls, [STOREY], xyz[k], scan_index=idx[k] if rays else None,
+                          scanner_positions=pos if rays else None, exterior_ids={0: "outside_0"})
+    return [(o.attributes["kind"], round(o.attributes["sill"], 2), round(o.attributes["width"], 2)) for o in ops]
+
+
+@pytest.mark.parametrize("rays", [True, False])
+@pytest.mark.parametrize("keep, seed", [(0.3, 0), (0.15, 1), (0.15, 2)])
+def test_sparse_glazing_on_a_low_sill_is_a_window_and_a_sparse_doorway_a_doorway(rays, keep, seed):
+    """2.5 m of glazing from a 10 cm sill to 2.3 m, seen from 7.5 m and thinned to 15-30 %: the
+    sill's top shows in a few columns only (under half), always at one level, and the floor
+    in none — a window (it read as a doorless opening down to the floor: the Duplex's
+    terrace glazing at 100k points). The same hole down to the floor, and a door, stay a
+    doorless opening and a door: a doorway shows the floor through its thickness."""
+    win = _sparse_far_hole((1.0, 3.5, 0.1, 2.3), keep, seed, rays, True)
+    assert [w[0] for w in win] == ["window"], win
+    assert abs(win[0][1] - 0.1) <= 0.03 and abs(win[0][2] - 2.5) <= 0.1, win
+    gap = _sparse_far_hole((1.0, 3.5, 0.0, 2.1), keep, seed, rays, False)
+    assert [(g[0], g[1]) for g in gap] == [("opening", 0.0)], gap
+    door = _sparse_far_hole((1.0, 1.9, 0.0, 2.1), keep, seed, rays, False)
+    assert [(d[0], d[1]) for d in door] == [("door", 0.0)], door
+
+
 @pytest.mark.parametrize("rays", [True, False])
 def test_glazing_up_to_just_under_the_ceiling_is_a_window(rays):
     """A 2 m window from a 0.5 m sill to 6 cm under the ceiling (the Duplex's terrace glazing
