@@ -12,7 +12,7 @@ from scipy import ndimage
 
 from .params import OpeningParams
 
-__all__ = ["banded", "box_sum", "face_present", "mask_runs", "observed_columns", "gap_rectangles", "hole_edge",
+__all__ = ["banded", "leaf_needed", "box_sum", "face_present", "mask_runs", "observed_columns", "gap_rectangles", "hole_edge",
            "near_points", "on_solid"]
 
 
@@ -217,6 +217,20 @@ def banded(face: np.ndarray, a: int, b: int, lo: int, hi: int, rb: int, p) -> bo
     face = face[:, cols].sum(axis=0)  # both faces
     rows = face[:, lo:hi].mean()
     return bool(rows < p.band_share * face[:, rb:max(rb + 1, nz - rb)].mean())
+
+
+def leaf_needed(face: np.ndarray, a: int, b: int, lo: int, hi: int, p) -> float:
+    """The share of cells a closed leaf's points must reach (near them) over columns
+    ``a:b``, rows ``lo:hi`` of a face (``face``: (nu, nz) counts): ``leaf_share`` of what
+    the face itself reaches beside the hole (the better of its two ``leaf_flank`` flanks,
+    same rows), at least ``leaf_floor``. A sparse scan (a mobile scanner's lines 15-30 cm
+    apart at 100k points) leaves a flat face's cells only partly near a point, a leaf's
+    as much, so a fixed share of the cells tells a closed door on dense scans only."""
+    f = int(round(p.leaf_flank / p.cell))
+    nu = face.shape[0]
+    ref = [float(near_points(face[c0:c1, lo:hi]).mean()) for c0, c1 in ((max(0, a - f), a), (b, min(nu, b + f)))
+           if c1 > c0 and hi > lo]
+    return p.leaf_share * min(1.0, max([p.leaf_floor] + ref))
 
 
 def on_solid(solid: np.ndarray, u: np.ndarray, z: np.ndarray, w, c: float) -> np.ndarray:

@@ -36,8 +36,8 @@ from scipy import ndimage
 from ..errors import InputError
 from ..geometry.boxes import min_area_box
 from ..model import Polyhedron, Shape, ShapeType, Storey
-from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, near_points, observed_columns,
-                   on_solid)
+from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, leaf_needed, near_points,
+                   observed_columns, on_solid)
 from .leaves import flush_leaves
 from .params import OpeningParams
 from .sills import level_sill, low_quantile, split_by_bottom
@@ -482,8 +482,8 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
         outer = [int(np.argmin([obs[0][c0:c1].mean(), obs[1][c0:c1].mean()]))]
     side = mode if mode != "both" else None
     leaf_sides = [side] if side is not None else [s for s in (0, 1) if s not in outer]
-    leafy = max([float(near_points(dd.leaf[s][c0:c1, max(rb, r0):r1]).mean()) for s in leaf_sides],
-                default=0.0) >= p.leaf_share
+    leafy = any(float(near_points(dd.leaf[s][c0:c1, max(rb, r0):r1]).mean())
+                >= leaf_needed(dd.face[s], c0, c1, max(rb, r0), r1, p) for s in leaf_sides)
     m = _measure(w, dd, rect, side, outer, obs, tol, leafy, p)
     if m is None or (side is not None and m[4] != "door"):
         return None
@@ -529,7 +529,9 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
             strips.append(np.s_[a:b, max(0, r - 2):r + 2])
     f_reveal = float(np.mean([dd.inside[st].sum() >= max(2.0, 3.0 * spill * dd.face[:, st[0], st[1]].sum())
                               for st in strips]))
-    f_leaf = max([float(near_points(dd.leaf[s][cells]).mean()) for s in leaf_sides], default=0.0)
+    cover = [(float(near_points(dd.leaf[s][cells]).mean()), leaf_needed(dd.face[s], a, b, lo, hi, p))
+             for s in leaf_sides]  # the leaf's cover of the hole on a face, and what it needs there
+    f_leaf = max([f for f, _ in cover], default=0.0)
     occluded = f_occ >= p.max_occluded if dd.rays else f_front >= p.max_front_cover
     if dd.stand_in:  # a stand-in's projection may exaggerate a shadow: the cover in front says so too
         occluded = occluded and f_front >= p.max_front_cover
@@ -537,7 +539,7 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     # and head stand inside the thickness: a shadow has neither (the shadowed share still
     # lowers the confidence); a wide "opening" may be a door joined to the shadow beside it
     occluded &= not (kind != "opening" and f_through >= p.min_seen_through and f_reveal >= p.reveal_share)
-    closed = kind == "door" and f_leaf >= p.leaf_share and f_through < p.min_seen_through
+    closed = kind == "door" and any(f >= need for f, need in cover) and f_through < p.min_seen_through
     if side is not None and not closed:
         return None
     if (w.external and f_through < p.min_seen_through and not _inner_faces(obs, a, b, outer)

@@ -114,7 +114,13 @@ class OpeningParams:
     leaf_depth: tuple = (0.02, 0.10)
     """A closed door leaf stands this far behind a face (inside the thickness), metres."""
     leaf_share: Ratio = 0.5
-    """Share of a closed door's cells that must hold leaf points."""
+    """Share of a closed door's cells that must hold leaf points (near them), of the share the
+    face reaches beside it (:func:`engine.elements.gaps.leaf_needed`)."""
+    leaf_flank: Metres = 0.5
+    """The face beside a closed leaf's hole, each side, that sets what the leaf must cover, metres."""
+    leaf_floor: Ratio = 0.4
+    """The face's cover beside the hole is taken as at least this (a leaf needs at least
+    ``leaf_share`` × this of its cells: a few stray points in a sparsely seen hole are no leaf)."""
     flush_depth: Metres = 0.006
     """A closed leaf within the face tolerance (:mod:`engine.elements.leaves`): the face
     points over a door-sized rectangle reaching the floor stand at least this much deeper than
