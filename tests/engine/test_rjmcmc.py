@@ -215,3 +215,31 @@ def test_rooms_meeting_without_a_wall_are_joined_after_the_search(skew, join):
     walled.set_model(split)
     walled.absorb_covered()
     assert len(walled.model()) == len(split)
+
+
+def test_a_covered_cell_walled_off_from_one_room_joins_the_room_it_opens_to(skew):
+    """A covered cell between two spaces, a seen wall on every face it shares with one of
+    them and none towards the other (a sparse scan sees the wall between two rooms from one
+    side only, as a single line, and a strip of a room cut off by that line's extension
+    touches both): it joins the room it opens to, the other room stays as it was. Before,
+    a cell next to two spaces stayed outside both (hexagon_hall mobile at 100k points: two
+    strips of the hall under its ceiling were exterior)."""
+    rooms, cells, cov, _, _ = skew
+    truth = _truth_spaces(cells, rooms)
+    st = SpaceSearch(cells, cov, RjmcmcParams())
+    k, c, parts = next((k, c, st.components(set(room) - {c})) for k, room in enumerate(truth) for c in room
+                       if st.covered[c] and len(st.components(set(room) - {c})) == 2)
+    split = [t for i, t in enumerate(truth) if i != k] + [sorted(p) for p in parts]
+    seen = cov.seen.copy()
+    seen[[fi for fi in st.cfaces[c] if st.face_ab[fi][0] in parts[0] or st.face_ab[fi][1] in parts[0]]] = True
+    walled = SpaceSearch(cells, replace(cov, seen=seen), RjmcmcParams())
+    walled.set_model(split)
+    assert walled.absorb_covered() >= 1
+    got = sorted(sorted(s) for s in walled.model())
+    assert sorted(parts[0]) in got and sorted(set(parts[1]) | {c}) in got, got
+    # seen walls towards both parts: it opens to none and stays outside
+    seen[list(st.cfaces[c])] = True
+    shut = SpaceSearch(cells, replace(cov, seen=seen), RjmcmcParams())
+    shut.set_model(split)
+    shut.absorb_covered()
+    assert all(c not in s for s in shut.model())
