@@ -148,7 +148,9 @@ def read_e57(path, *, progress=None, should_stop=None, params: Optional[ReadPara
     try:
         e57 = pye57.E57(path)
     except Exception as e:  # libE57 raises its own exception types
-        raise FormatError(f"not a readable E57 file ({e})", path) from None
+        why = str(e).split("****")[0].strip().splitlines()  # libE57's first line, not its debug trail
+        why = why[0].strip() if why else type(e).__name__
+        raise FormatError(f"not a readable E57 file ({why})", path) from None
     try:
         k = e57.scan_count
         if k == 0:

@@ -468,7 +468,7 @@ def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
     planes = [pl for pl in planes if len(pl.support) >= params.min_points]
     planes = [Plane(**{**pl.__dict__, "id": i}) for i, pl in enumerate(planes)]
     if not any(pl.kind == "wall" for pl in planes):
-        raise ReconstructionError(f"{name}: no wall plane found (no vertical structure)")
+        raise ReconstructionError("no wall plane found (no vertical structure)", cloud.source or None)
     p(1.0, f"{len(planes)} planes")
     log.info("%s: %d planes after refinement (%d walls)", name, len(planes),
              sum(pl.kind == "wall" for pl in planes))

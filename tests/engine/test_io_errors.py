@@ -207,6 +207,8 @@ def test_unreadable_las_and_e57(tmp_path, ext):
     e = _raises(FormatError, p)
     assert isinstance(e, IndoorError)
     assert "las" in str(e).lower() or "e57" in str(e).lower()
+    # one short line: libE57's debug trail (file names, checksums, C++ source lines) left out
+    assert "\n" not in str(e) and "****" not in str(e) and len(str(e)) < 200, str(e)
 
 
 def test_truncated_las(tmp_path):
