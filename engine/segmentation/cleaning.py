@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import EmptyCloudError
 from ..geometry.kdtree import kdtree, spatial_order
-from ..geometry.normals import eigenvalues_3x3, knn_normals, one_sided_normals
+from ..geometry.normals import SHEET_TILT, eigenvalues_3x3, knn_normals, one_sided_normals, sheet_normals
 from ..lazy_open3d import open3d
 from ..pointcloud import PointCloud
 from ..progress import Progress
@@ -267,19 +267,25 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     hybrid = o3d.geometry.KDTreeSearchParamHybrid(radius=params.radius, max_nn=params.max_nn)
     s = _scanner_of_points(cloud)
     one_sided = s is not None and params.one_sided_planarity > 0
-    if one_sided:
+    sheets = s is None and params.one_sided_planarity > 0 and params.sheet_gap > 0  # no positions
+    if one_sided or sheets:
         pc.estimate_covariances(hybrid)  # kept: the normals below reuse them (open3d's own normals)
     pc.estimate_normals(hybrid)
     nrm = np.empty((len(cloud), 3))
     nrm[order] = np.asarray(pc.normals, dtype=np.float64)
     wide = np.zeros(0, np.int64)
-    if one_sided:
+    if one_sided or sheets:
         cov = np.asarray(pc.covariances)  # in space order
         # the neighbourhood's radius is about √(2 · trace): only wide ones can reach a second sheet
         trace = cov[:, 0, 0] + cov[:, 1, 1] + cov[:, 2, 2]
         wide = np.flatnonzero(2.0 * trace >= params.one_sided_reach ** 2)
         w = eigenvalues_3x3(cov[wide])
-        wide = order[wide[w[:, 0] > params.one_sided_planarity * w[:, 1]]]  # and far from planar
+        wide = wide[w[:, 0] > params.one_sided_planarity * w[:, 1]]  # and far from planar
+        if sheets:
+            # two horizontal sheets spread the neighbourhood in height by at least what a sixth
+            # of it at ``sheet_gap`` from the rest does: a noisy floor's is not split
+            wide = wide[cov[wide, 2, 2] >= (5 / 36) * params.sheet_gap ** 2]
+        wide = order[wide]
         del cov
     del pc
     # open3d leaves exactly (0, 0, 1) when a neighbourhood has fewer than 3 points
@@ -289,7 +295,20 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         nrm[bad] = knn_normals(cloud.xyz, params.fallback_knn, np.nonzero(bad)[0], tree=tree)
     redo = wide[~bad[wide]]
     to_scanner = s - cloud.xyz if s is not None else None  # read by both steps below
-    if len(redo):
+    if sheets:
+        # no scanner says which side a point was seen from: a floor and the ceiling under its
+        # slab are told apart by the gap in height between them. Only tilted normals: a wall's
+        # stays near horizontal however noisy, a floor's already within the split's tilt
+        nz = np.abs(nrm[redo, 2])
+        redo = redo[(nz >= 0.1) & (nz < np.cos(SHEET_TILT))]
+    if len(redo) and sheets:
+        tree = kdtree(cloud.xyz) if tree is None else tree
+        n1 = sheet_normals(cloud.xyz, redo, params.max_nn, params.radius, params.sheet_gap,
+                           planarity=params.one_sided_planarity, tree=tree)
+        got = np.isfinite(n1).all(axis=1)
+        nrm[redo[got]] = n1[got]
+        log.debug("normals: %d of %d points re-estimated over their own sheet", int(got.sum()), len(cloud))
+    elif len(redo):
         # neighbourhoods far from planar and wide enough to reach a second sheet (the other
         # face of a partition, a table's underside): again over the points seen from this side
         with np.errstate(invalid="ignore", divide="ignore"):  # a point at its scanner: NaN, left out

@@ -91,6 +91,12 @@ class NormalParams:
     """Only neighbourhoods at least this wide (radius √(2 · trace) of their covariance,
     metres) are estimated again: partitions are about 10 cm thick or more, so a narrower
     neighbourhood cannot reach the other face (and a noisy dense scan keeps its cost)."""
+    sheet_gap: Metres = 0.10
+    """Without scanner positions, such a point (the same gates) whose neighbours lie in two
+    horizontal sheets at least this far apart in height (a floor and the ceiling under its
+    slab; not a floor and the ground 5 cm under it outside a door, which turned FZK-Haus's
+    storey floor 5 cm low) is estimated again over its own sheet
+    (:func:`engine.geometry.normals.sheet_normals`). 0: never."""
 
 
 @dataclass(frozen=True)

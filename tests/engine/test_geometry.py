@@ -126,6 +126,35 @@ def test_one_sided_normals_keep_a_thin_walls_faces_apart():
     assert np.isnan(one_sided_normals(xyz, no_view, np.arange(10), 30, 0.25)).all()
 
 
+@pytest.mark.parametrize("seed", [2, 3, 4])
+def test_sheet_normals_tell_a_floor_from_the_ceiling_under_its_slab(seed):
+    """No scanner positions. An upper storey's floor sampled in sparse scan lines 17 cm apart,
+    the denser ceiling of the storey below 25 cm under it (the slab), a wall in horizontal
+    scan lines: a 0.42 m neighbourhood of a floor point is mostly ceiling and its PCA normal
+    tilts anywhere (1-4 % of the floor within 25° of vertical); split at the largest gap in
+    height, its own sheet gives the floor's normal (0.90-0.95). The wall's points, whose
+    split leaves a scan line, keep theirs (no estimate)."""
+    from engine.geometry.normals import sheet_normals
+
+    rng = np.random.default_rng(seed)
+    n, m, k = 600, 2500, 1500
+    floor = np.c_[rng.uniform(0, 4, n), rng.choice(np.arange(0, 4, 0.17), n) + rng.normal(0, 0.005, n),
+                  0.25 + rng.normal(0, 0.005, n)]
+    ceiling = np.c_[rng.uniform(0, 4, m), rng.uniform(0, 4, m), rng.normal(0, 0.005, m)]
+    wall = np.c_[4.0 + rng.normal(0, 0.005, k), rng.uniform(0, 4, k),
+                 rng.choice(np.arange(-1.0, 1.2, 0.12), k) + rng.normal(0, 0.004, k)]
+    xyz = np.vstack([floor, ceiling, wall])
+    plain = knn_normals(xyz, 30)
+    sheet = sheet_normals(xyz, np.r_[np.arange(n), np.arange(n + m, n + m + k)], 30, 0.42, 0.05)
+    vertical = np.cos(np.deg2rad(25))
+    got = np.isfinite(sheet[:n]).all(axis=1)
+    floor_n = np.where(got[:, None], sheet[:n], plain[:n])
+    assert np.mean(np.abs(plain[:n, 2]) >= vertical) < 0.2
+    assert np.mean(np.abs(floor_n[:, 2]) >= vertical) > 0.85
+    assert np.isnan(sheet[n:]).all()  # the wall: no split kept
+    assert np.isnan(sheet_normals(xyz, np.arange(n), 30, 0.42, 0.5)).all()  # no gap that wide
+
+
 def test_one_shared_tree_gives_the_same_spacing_and_noise():
     """The Manhattan method builds one k-d tree of the full cloud, in the input frame, for the
     spacing, the normals' fallback and the noise of the aligned cloud: the noise is the PCA's
