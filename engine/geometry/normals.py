@@ -125,7 +125,9 @@ def _neighbour_chunks(xyz: np.ndarray, query: np.ndarray, k: int, radius: float,
         d, nb = tree.query(xyz[qi], k=k, distance_upper_bound=radius, workers=workers)
         d, nb = np.asarray(d).reshape(len(qi), k), np.asarray(nb).reshape(len(qi), k)
         ok = np.isfinite(d)
-        yield s, qi, np.where(ok, nb, 0), ok
+        nb = np.where(ok, nb, 0)
+        del d  # not held while the caller works on the chunk
+        yield s, qi, nb, ok
 
 
 def _masked_pca(cols: list, nb: np.ndarray, qi: np.ndarray, keep: np.ndarray):
