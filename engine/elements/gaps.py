@@ -12,8 +12,8 @@ from scipy import ndimage
 
 from .params import OpeningParams
 
-__all__ = ["banded", "leaf_needed", "box_sum", "face_present", "mask_runs", "observed_columns", "gap_rectangles", "hole_edge",
-           "near_points", "on_solid"]
+__all__ = ["banded", "leaf_needed", "box_sum", "face_present", "mask_runs", "observed_columns", "gap_rectangles",
+           "hole_edge", "near_points", "on_solid"]
 
 
 def box_sum(a: np.ndarray, k: int) -> np.ndarray:
@@ -228,8 +228,8 @@ def leaf_needed(face: np.ndarray, a: int, b: int, lo: int, hi: int, p) -> float:
     as much, so a fixed share of the cells tells a closed door on dense scans only."""
     f = int(round(p.leaf_flank / p.cell))
     nu = face.shape[0]
-    ref = [float(near_points(face[c0:c1, lo:hi]).mean()) for c0, c1 in ((max(0, a - f), a), (b, min(nu, b + f)))
-           if c1 > c0 and hi > lo]
+    flanks = ((max(0, a - f), a), (b, min(nu, b + f)))
+    ref = [float(near_points(face[c0:c1, lo:hi]).mean()) for c0, c1 in flanks if c1 > c0 and hi > lo]
     return p.leaf_share * min(1.0, max([p.leaf_floor] + ref))
 
 

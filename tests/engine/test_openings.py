@@ -290,7 +290,8 @@ def _sparse_far_hole(hole, keep: float, seed: int, rays: bool, glass: bool):
     k = np.random.default_rng(seed).random(len(xyz)) < keep
     ops = detect_openings(walls, [STOREY], xyz[k], scan_index=idx[k] if rays else None,
                           scanner_positions=pos if rays else None, exterior_ids={0: "outside_0"})
-    return [(o.attributes["kind"], round(o.attributes["sill"], 2), round(o.attributes["width"], 2)) for o in ops]
+    return [(o.attributes["kind"], round(o.attributes["sill"], 2), round(o.attributes["width"], 2))
+            for o in ops]
 
 
 @pytest.mark.parametrize("rays", [True, False])
@@ -529,7 +530,8 @@ def _banded_two_rooms(leafed: bool, hole: bool, seed: int):
     wall, 30 % of their points (office_mw at 100k points: a face's cells are only 30-45 %
     near a point)."""
     leaf = ((DOOR[0], T_INT / 2 - 0.07, 0.0), (DOOR[1], T_INT / 2 - 0.03, DOOR[3]))
-    extra = (_holed_wall(T_INT, DOOR) if hole else [((0, -T_INT / 2, 0), (L, T_INT / 2, H))]) + ([leaf] if leafed else [])
+    wall = _holed_wall(T_INT, DOOR) if hole else [((0, -T_INT / 2, 0), (L, T_INT / 2, H))]
+    extra = wall + ([leaf] if leafed else [])
     boxes, walls, scanners = _two_rooms(extra)
     xyz, idx, pos = _scan(boxes, scanners)
     z = xyz[:, 2] - FLOOR
