@@ -12,8 +12,8 @@ from scipy import ndimage
 
 from .params import OpeningParams
 
-__all__ = ["banded", "leaf_needed", "box_sum", "face_present", "mask_runs", "observed_columns", "gap_rectangles",
-           "hole_edge", "near_points", "on_solid"]
+__all__ = ["banded", "leaf_needed", "box_sum", "face_present", "mask_runs", "observed_columns",
+           "gap_rectangles", "hole_edge", "near_points", "on_solid"]
 
 
 def box_sum(a: np.ndarray, k: int) -> np.ndarray:

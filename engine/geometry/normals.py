@@ -14,8 +14,8 @@ import numpy as np
 from ..threads import thread_cap
 from .kdtree import kdtree
 
-__all__ = ["knn_pca", "knn_normals", "eigenvalues_3x3", "smallest_eigenpairs", "one_sided_normals", "sheet_normals",
-           "SHEET_TILT"]
+__all__ = ["knn_pca", "knn_normals", "eigenvalues_3x3", "smallest_eigenpairs", "one_sided_normals",
+           "sheet_normals", "SHEET_TILT"]
 
 
 def knn_pca(xyz: np.ndarray, k: int, query: Optional[np.ndarray] = None, *,
