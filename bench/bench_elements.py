@@ -6,7 +6,8 @@ scenes fzk_haus and duplex of :mod:`engine.synthetic.ifcscene` when that module 
 the run is not quick): reconstruct, then :func:`engine.evaluation.evaluate_elements` — doors
 and windows (true / found / matched, P, R, F1, width errors), exterior-boundary coverage by
 external and by any walls, floor and ceiling slabs per storey, rooms (model spaces / true
-rooms, open plans merged / matched), walls vs true wall runs, the door graph — and the
+rooms / matched, open plans merged on both sides; the raw space count in brackets when it
+differs), walls vs true wall runs, the door graph — and the
 reconstruction time. The bench only reports what the model holds. Rooms,
 exterior walls and slabs are scored over the true spaces the scan reaches
 (:func:`engine.evaluation.rooms.scanned_spaces`: an IFC roof level no scanner enters is left
@@ -114,7 +115,8 @@ def table_row(r: dict) -> str:
         f"{w['true']}/{w['found']}/{w['matched']}", _f(w["f1"]),
         f"{_f(ex['external_share'])}/{_f(ex['any_share'])}",
         f"{sl['floor_found']}/{sl['ceiling_found']} of {sl['storeys']}",
-        f"{sp['model']}/{sp['truth']}/{sp['matched']}",
+        f"{sp['model_rooms']}/{sp['truth']}/{sp['matched']}"
+        + ("" if sp["model_rooms"] == sp["model"] else f" ({sp['model']} spaces)"),
         f"{wa['model']}/{wa['truth_runs']}",
         f"{'yes' if c['equal'] else 'no'}/{len(c['missing'])}/{len(c['extra'])}",
     ]

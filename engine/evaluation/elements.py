@@ -26,10 +26,11 @@ figures:
   the storey footprint. Slabs count by their height whatever their ``kind`` (the kinds of
   the counted slabs are listed), so a model's ceiling slab under the storey above is that
   storey's floor too.
-* ``spaces`` — model space count vs the true room count, rooms matched and their mean
-  IoU, as :func:`engine.evaluation.rooms.room_scores` counts them: true rooms joined without
-  a wall (an open plan, FZK-Haus's kitchen and living room) are one room, and model spaces
-  inside one open plan one space; ``truth_spaces`` / ``matched_spaces``: the true spaces one
+* ``spaces`` — model space count (``model``; ``model_rooms``: counted as the rooms are)
+  vs the true room count, rooms matched and their mean IoU, as
+  :func:`engine.evaluation.rooms.room_scores` counts them: true rooms joined without a wall
+  (an open plan, FZK-Haus's kitchen and living room) are one room, and model spaces inside
+  one open plan one space (FZK-Haus's hall split at its beam from the living room); ``truth_spaces`` / ``matched_spaces``: the true spaces one
   by one and those a model space matches by footprint IoU (they name the graph's nodes).
 * ``walls`` — model wall count vs the *true wall runs*: the truth's wall pieces merged into
   straight runs (parallel within ``run_angle``, centre lines within ``run_offset``, thickness
@@ -460,7 +461,7 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
         "windows": _opening_scores(model, truth, True, params, None if seen is None else scored),
         "exterior": _exterior_scores(model, truth, outlines, params),
         "slabs": _slab_scores(model, truth, outlines, params),
-        "spaces": {"model": len(model.spaces), "truth": plans["true"],
+        "spaces": {"model": len(model.spaces), "model_rooms": plans["model"], "truth": plans["true"],
                    "ratio": _ratio(len(model.spaces), plans["true"]), "matched": plans["matched"],
                    "mean_iou": None if plans["matched"] == 0 else float(plans["mean_iou"]),
                    "truth_spaces": n_true_rooms, "matched_spaces": len(ious),

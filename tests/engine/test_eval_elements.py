@@ -385,6 +385,9 @@ def test_outline_spans_party_walls_and_stair_voids_and_skips_unseen_storeys():
     assert r["spaces"]["truth_spaces"] == len(truth.spaces) - 1 == r["spaces"]["matched_spaces"]
     # flat A's storey-0 rooms meet without walls: one open plan, one room (4 rooms in all)
     assert r["spaces"]["truth"] == r["spaces"]["matched"] == 4
+    # the model's spaces are counted as the rooms are: the open plan's two spaces one room,
+    # the unscanned attic none (the raw count keeps every space)
+    assert r["spaces"]["model_rooms"] == 4 and r["spaces"]["model"] == len(truth.spaces) == 7
     # ... nor windows (a roof light in the attic's roof): a model without it loses nothing
     assert evaluate_elements(truth, truth)["windows"]["true"] == 2
     r = evaluate_elements(truth.replace_shapes(remove={"roof_light"}), truth, seen=seen)
