@@ -38,6 +38,7 @@ from ..geometry.boxes import min_area_box
 from ..model import Polyhedron, Shape, ShapeType, Storey
 from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, leaf_needed, near_points,
                    observed_columns, on_solid)
+from .junctions import hidden_columns
 from .leaves import flush_leaves
 from .params import OpeningParams
 from .sills import level_sill, low_quantile, split_by_bottom
@@ -372,9 +373,10 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
 
 
 # ----------------------------------------------------------------------------- gaps
-def _gap_rects(dd: _Data, p: OpeningParams, external: bool = False) -> tuple[list, list]:
+def _gap_rects(dd: _Data, p: OpeningParams, external: bool = False, hidden=None) -> tuple[list, list]:
     """Candidate rectangles (full-raster cells) with their mode ("both": a hole through every
-    observed face; 0 / 1: a gap on that face only), and the per-side observed columns."""
+    observed face; 0 / 1: a gap on that face only), and the per-side observed columns; no
+    gap in the columns another wall covers on either face (``hidden``, (2, nu) bool)."""
     c = p.cell
     nz = dd.face.shape[2]
     r_lo = int(math.ceil(p.edge_band / c))
@@ -384,11 +386,12 @@ def _gap_rects(dd: _Data, p: OpeningParams, external: bool = False) -> tuple[lis
     obs = observed_columns(cols, run, int(round(p.density_window / c)) | 1, ends=external)
     empty = [~face_present(dd.face[s][:, r_lo:r_hi], p) for s in (0, 1)]
     o0, o1 = obs
-    both = (empty[0] | ~o0[:, None]) & (empty[1] | ~o1[:, None]) & (o0 | o1)[:, None]
+    free = np.ones(len(o0), bool) if hidden is None else ~(hidden[0] | hidden[1])
+    both = (empty[0] | ~o0[:, None]) & (empty[1] | ~o1[:, None]) & (o0 | o1)[:, None] & free[:, None]
     out = [((a, b, r0 + r_lo, r1 + r_lo), "both") for a, b, r0, r1 in gap_rectangles(both, p)]
     for s in (0, 1):
         if obs[1 - s].any():  # a face-only gap where the other face is there: a closed door?
-            single = empty[s] & obs[s][:, None] & ~empty[1 - s]
+            single = empty[s] & obs[s][:, None] & ~empty[1 - s] & free[:, None]
             out += [((a, b, r0 + r_lo, r1 + r_lo), s) for a, b, r0, r1 in gap_rectangles(single, p)]
     return out, obs
 
@@ -764,8 +767,9 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
                 dd.stand_in = dd.rays
     out: list[Shape] = []
     count = {"door": 0, "window": 0}
-    for w, dd in zip(frames, data):
-        rects, obs = _gap_rects(dd, p, w.external)
+    hidden = hidden_columns(frames, p.cell, p.junction_depth)
+    for w, dd, hid in zip(frames, data, hidden):
+        rects, obs = _gap_rects(dd, p, w.external, hid)
         found: list[dict] = []
         for rect, mode in sorted(rects, key=lambda r: r[1] != "both"):
             parts = split_by_bottom(dd, rect, p) if mode == "both" else [rect]

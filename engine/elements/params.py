@@ -111,6 +111,9 @@ class OpeningParams:
     share of the face's density there over its height (a band between a scanner's lines)."""
     min_confidence: Ratio = 0.3
     """Gaps with less confidence are dropped."""
+    junction_depth: Metres = 0.1
+    """A wall standing against a face from the face out to this far in front of it hides the
+    face there: no gap in those columns (:mod:`engine.elements.junctions`), metres."""
     leaf_depth: tuple = (0.02, 0.10)
     """A closed door leaf stands this far behind a face (inside the thickness), metres."""
     leaf_share: Ratio = 0.5

@@ -643,6 +643,48 @@ def test_narrow_gaps_are_no_openings():
     assert detect_openings(walls, [STOREY], xyz, scan_index=idx, scanner_positions=pos) == []
 
 
+JUNCTION = (2.0, 2.66)
+"""Where two 0.66 m walls abut the wall between the rooms, one on each side (u0, u1), metres."""
+
+
+def _junction_scene(model_t: float, door: bool):
+    """Two 0.66 m cross walls abut the 0.15 m wall between room_a and room_b from both sides
+    at the same place (the Duplex's walls at its party wall), splitting each room in two; a
+    door right beside them (``door``). The model has the middle wall ``model_t`` thick."""
+    u0, u1 = JUNCTION
+    mid = _holed_wall(T_INT, (u1, u1 + 0.9, 0.0, 2.1)) if door else [((0.0, -T_INT / 2, 0.0), (L, T_INT / 2, H))]
+    boxes = _room(T_INT / 2, 4.0) + _room(-T_INT / 2, -4.0) + mid + [
+        ((u0, T_INT / 2, 0.0), (u1, 4.0, H)), ((u0, -4.0, 0.0), (u1, -T_INT / 2, H))]
+    walls = [_wall("w_mid", 0.0, 0.0, L, model_t, ("room_a", "room_b"), False),
+             _wall("w_a", 0.0, 4.1, L, 0.2, ("room_a", None), True),
+             _wall("w_b", L, -4.1, 0.0, 0.2, ("room_b", None), True)]
+    um = (u0 + u1) / 2
+    for wid, v1 in (("x_a", 4.0), ("x_b", -4.0)):  # the cross walls run along v, from the middle wall's axis
+        x = _wall(wid, 0.0, 0.0, 1.0, u1 - u0, ("room_a", "room_a2"), False)
+        a, b = _to_model([[um, 0.0, 0.0], [um, v1, 0.0]])[:, :2]
+        walls.append(x.with_(attributes={**x.attributes, "axis_line": [a.tolist(), b.tolist()]}))
+    return boxes, walls, [(1.0, 2.2, 1.5), (3.8, 2.2, 1.5), (1.0, -2.5, 1.5), (3.8, -2.5, 1.5)]
+
+
+@pytest.mark.parametrize("rays", [True, False])
+@pytest.mark.parametrize("model_t", [T_INT, T_INT + 0.06])
+def test_no_opening_where_walls_abut_a_face_from_both_sides(rays, model_t):
+    """The faces of the middle wall have no points where the cross walls stand against them:
+    a 0.66 m strip up to the ceiling empty on both faces. Beside a door it was a second,
+    doorless opening without scanner positions (the door's points beyond and floor points
+    lent it evidence). A hole cannot open into a wall: only the door is there."""
+    for door in (False, True):
+        boxes, walls, scanners = _junction_scene(model_t, door)
+        xyz, idx, pos = _scan(boxes, scanners)
+        ops = [o for o in detect_openings(walls, [STOREY], xyz, scan_index=idx if rays else None,
+                                          scanner_positions=pos if rays else None) if o.parent == "w_mid"]
+        assert len(ops) == int(door), [o.attributes for o in ops]
+        if door:  # its jamb on the cross wall's side, its width within 5 cm
+            a = ops[0].attributes
+            assert a["kind"] == "door" and abs(a["width"] - 0.9) <= 0.05, a
+            assert abs(_centre_u(ops[0]) - (JUNCTION[1] + 0.45)) <= 0.05
+
+
 def test_bad_input_raises_input_errors_and_nothing_gives_nothing():
     wall = _wall("w", 0.0, 0.0, L, T_INT, ("a", "b"), False)
     with pytest.raises(InputError, match="xyz"):
