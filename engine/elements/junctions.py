@@ -54,8 +54,9 @@ def hidden_columns(walls: Sequence, cell: float, depth: float, extend: float = 0
     lo = np.array([c.min(axis=0) for c in corners])
     hi = np.array([c.max(axis=0) for c in corners])
     reach = np.array([depth + w.thickness for w in walls])  # a face's strip lies within this of the axis box
-    near = ((lo[:, None, 0] - reach[:, None] <= hi[None, :, 0]) & (hi[:, None, 0] + reach[:, None] >= lo[None, :, 0])
-            & (lo[:, None, 1] - reach[:, None] <= hi[None, :, 1]) & (hi[:, None, 1] + reach[:, None] >= lo[None, :, 1]))
+    r = reach[:, None]
+    near = ((lo[:, None, 0] - r <= hi[None, :, 0]) & (hi[:, None, 0] + r >= lo[None, :, 0])
+            & (lo[:, None, 1] - r <= hi[None, :, 1]) & (hi[:, None, 1] + r >= lo[None, :, 1]))
     np.fill_diagonal(near, False)
     for i, j in zip(*np.nonzero(near)):
         w, x = walls[i], walls[j]

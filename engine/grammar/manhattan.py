@@ -63,7 +63,7 @@ from .ends import UpperBand, free_wall_ends, heal_split_cells
 from .geometry import box_of
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
-from .passages import doorway_tops, enclosed_pockets, wide_passages
+from .passages import doorway_tops, enclosed_pockets, furniture_strips, wide_passages
 from .place import (StoreyFrame, detect_levels, given_frame, histogram_peaks, paired_faces, storey_chunks,
                     storey_frame)
 from .roof import roof_planes, slope_spaces
@@ -450,6 +450,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     doorway_tops(shapes, types, lowest, X, Y, params, spacing, margin)
     wide_passages(shapes, types, params, upper)
     enclosed_pockets(shapes, types, params)
+    furniture_strips(shapes, types, lowest, X, Y, params, margin)
     wide_passages(shapes, types, params, upper)  # pockets turned interior can flank a passage too
     _open_voids(shapes, types, xyz, normals, frame, params)
     return [shapes[key] for key in sorted(shapes)]

@@ -264,6 +264,13 @@ class ManhattanParams:
     seen, closed all round by walls and rooms and open to a room, is part of that room: its
     ceiling fell between a far scan's lines (:func:`.passages.enclosed_pockets`); 0 turns it
     off, metres."""
+    strip_density: Ratio = 0.25
+    """A run of thin exterior cuboids between a room and a wall whose ceiling is seen at
+    least this share of the room's density is the room's, behind furniture
+    (:func:`.passages.furniture_strips`); 0 turns it off."""
+    strip_band: Metres = 0.5
+    """... measured against the room's ceiling in a band this wide (or as wide as the run)
+    beside it, metres."""
     min_passage_width: Metres = 2.0
     """A thin unseen cuboid with floor under it between two interiors, at least this long, is a
     wide opening under a beam or lintel that joins them (narrower: a door); 0 turns it off."""

@@ -1,7 +1,8 @@
 """Cuboids between rooms after the classification (docs/method.md §2): doorways whose top
 only the ceiling's noise made look seen (:func:`doorway_tops`), wide passages under a beam or
-a lintel that join two parts of an open plan (:func:`wide_passages`), and narrow pockets of a
-room whose ceiling fell between a far scan's lines (:func:`enclosed_pockets`). They change
+a lintel that join two parts of an open plan (:func:`wide_passages`), narrow pockets of a
+room whose ceiling fell between a far scan's lines (:func:`enclosed_pockets`), and strips of
+a room behind tall furniture against a wall (:func:`furniture_strips`). They change
 ``shapes`` / ``types`` of :func:`.manhattan.place_storey` in place."""
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from ..model import ShapeType
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams
 
-__all__ = ["doorway_tops", "wide_passages", "enclosed_pockets"]
+__all__ = ["doorway_tops", "wide_passages", "enclosed_pockets", "furniture_strips"]
 
 _BEAM_SHARE = 0.25
 """A wide passage's faces hold a surface near the ceiling along at least this share of it: a
@@ -252,3 +253,109 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -
                 f"{s.id}, floor seen (IPoF(bottom)={s.support.get('ipof_bottom', 0.0):.2f}), closed by walls "
                 f"and rooms, open to a room (face {room}), ceiling unseen -> interior (lower confidence)",
                 type=ShapeType.INTERIOR, terminal=False, attributes={**c.attributes, "ceiling_seen": False})
+
+
+def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndarray, Y: np.ndarray,
+                     params: ManhattanParams, margin: float) -> None:
+    """Strips of a room behind tall furniture against a wall, in place (issue 19).
+
+    A cabinet 0.4 m deep and 2 m high against a wall puts a plane at its front: the cuboids
+    between it and the wall are each thinner than a wall, their floor hidden and their
+    ceiling's index low (narrow cuboids on a sparse scan: 0.05–0.24 where the room beside
+    them reaches 0.8, two_storey_office mobile), so they came out exterior — the room ended at
+    the cabinet's front, with a 0.7 m "wall" holding a false door. A run across them, from an
+    interior cuboid (the face between them unseen, IPoF < τ on both) over exterior cuboids on
+    the floor (and thin interior ones the classification made rooms of) to a wall cuboid,
+    each at most ``max_wall_thickness`` and all at most ``pocket_width`` across, closed at
+    its ends (walls, rooms, such runs or the grid's edge, the outermost wall plane; a thin
+    interior cuboid's ends by walls), is part of the room when its ceiling is seen at least
+    ``strip_density`` of the room's density beside it: points of the lowest ceiling level
+    ``uv`` per m² inside the run (``margin`` — the range noise — in from its long sides)
+    against those in the room's band ``strip_band`` (or the run's width) wide along it (a
+    ceiling's density falls off away from a scanner's path). Its faces across the run are
+    furniture (``joined_faces``): one space with the room. A wall's body has no ceiling over
+    it, a doorway's is hidden by its lintel, and beyond a glazed wall lies the outside, not
+    a wall."""
+    if params.pocket_width <= 0 or params.strip_density <= 0 or len(uv) == 0:
+        return
+    nx, ny, nz = types.shape
+    tau, t_max = params.tau, params.max_wall_thickness
+    uv = uv[np.argsort(uv[:, 0], kind="stable")]
+
+    def density(x0, x1, y0, y1):
+        if x1 <= x0 or y1 <= y0:
+            return 0.0
+        a, b = np.searchsorted(uv[:, 0], x0), np.searchsorted(uv[:, 0], x1, side="right")
+        n = int(np.count_nonzero((uv[a:b, 1] >= y0) & (uv[a:b, 1] <= y1)))
+        return n / ((x1 - x0) * (y1 - y0))
+
+    def inside(q):
+        return 0 <= q[0] < nx and 0 <= q[1] < ny
+
+    def free(q):  # an exterior cuboid on the floor with nothing interior above it
+        return inside(q) and types[q[0], q[1], 0] == ShapeType.EXTERIOR and \
+            not any(types[q[0], q[1], k] == ShapeType.INTERIOR for k in range(1, nz))
+
+    runs = []
+    for (i, j), t in np.ndenumerate(types[:, :, 0]):
+        if t != ShapeType.INTERIOR:
+            continue
+        for f, di, dj in _SIDES:
+            back = {2: 4, 3: 5, 4: 2, 5: 3}[f]
+            run, q = [], (i + di, j + dj)
+            edges = X if di else Y
+            while (free(q) or (inside(q) and types[q[0], q[1], 0] == ShapeType.INTERIOR and run)) \
+                    and edges[q[0 if di else 1] + 1] - edges[q[0 if di else 1]] <= t_max:
+                run.append(q)  # ... or a thin part the classification made a room of, between it and the wall
+                q = (q[0] + di, q[1] + dj)
+            if not run or not inside(q) or types[q[0], q[1], 0] != ShapeType.WALL:
+                continue
+            if shapes[(i, j, 0)].support.get(f"ipof_f{f}", 0.0) >= tau or \
+                    shapes[run[0] + (0,)].support.get(f"ipof_f{back}", 0.0) >= tau:
+                continue
+            lo = np.min([shapes[c + (0,)].geometry.bounds[0, :2] for c in run], axis=0)
+            hi = np.max([shapes[c + (0,)].geometry.bounds[1, :2] for c in run], axis=0)
+            if float((hi - lo)[0 if di else 1]) > params.pocket_width:
+                continue
+            # the room's ceiling beside the run, as wide (a ceiling's density falls off away
+            # from the scanner's path: the room's middle is no measure for its edge)
+            rb = shapes[(i, j, 0)].geometry.bounds.copy()
+            k = 0 if di else 1
+            band = max(float(hi[k] - lo[k]), params.strip_band)
+            if di + dj > 0:
+                rb[0, k] = max(rb[0, k], rb[1, k] - band)
+            else:
+                rb[1, k] = min(rb[1, k], rb[0, k] + band)
+            ref = density(rb[0, 0] + margin, rb[1, 0] - margin, rb[0, 1] + margin, rb[1, 1] - margin)
+            lo[k], hi[k] = lo[k] + margin, hi[k] - margin
+            if ref > 0 and density(lo[0], hi[0], lo[1], hi[1]) >= params.strip_density * ref:
+                runs.append(((i, j), f, back, run, ref))
+    cells = {c for *_, run, _ in runs for c in run}
+    changed = True
+    while changed:  # a run whose end opens to the outside (or a thin room part's, to a room) drops out
+        changed = False
+        for r in list(runs):
+            di = r[1] in (3, 5)
+            ends = [(c, (c[0], c[1] + s) if di else (c[0] + s, c[1])) for c in r[3] for s in (-1, 1)]
+            # the grid's edge is the outermost wall plane: it closes a run as it closes a room
+            if any(inside(e) and e not in cells and (
+                   types[e[0], e[1], 0] != ShapeType.WALL if types[c[0], c[1], 0] == ShapeType.INTERIOR
+                   else types[e[0], e[1], 0] not in (ShapeType.INTERIOR, ShapeType.WALL))
+                   for c, e in ends):
+                runs.remove(r)
+                cells = {c for *_, run, _ in runs for c in run}
+                changed = True
+    for (i, j), f, back, run, ref in runs:
+        if not any(free(c) for c in run):
+            continue
+        for n, c in enumerate(run):
+            s = shapes[c + (0,)]
+            types[c[0], c[1], 0] = ShapeType.INTERIOR
+            # the faces across the run are furniture, not the last one's toward the wall
+            joined = tuple(sorted(set(s.attributes.get("joined_faces", ())) | {back}
+                                  | ({f} if n < len(run) - 1 else set())))
+            shapes[c + (0,)] = s.logged(
+                f"classify: strip between room part {shapes[(i, j, 0)].id} and a wall behind furniture, "
+                f"ceiling seen at the room's density (≥ {params.strip_density:g} of {ref:.0f} points/m²) "
+                "-> interior", type=ShapeType.INTERIOR, terminal=False,
+                attributes={**s.attributes, "joined_faces": joined})

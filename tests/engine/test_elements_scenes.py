@@ -178,6 +178,29 @@ def test_a_partition_seen_little_from_one_side_keeps_its_wall_and_door(results):
 
 
 @pytest.mark.slow
+def test_a_cabinet_against_a_partition_leaves_the_room_whole_and_no_false_door(results):
+    """two_storey_office mobile, seed 4: a 2 m cabinet 0.4 m deep stands against the 0.2 m
+    partition between two ground-floor rooms (x 9.9-10.1 m). Its front was the room's end:
+    the cuboids behind it, each thinner than a wall, had a low ceiling index on the sparse
+    ceiling and came out exterior — a 0.7 m "wall" at x 9.4-10.1 with a 2.8 m "door" in it,
+    the room 0.5 m short. The ceiling over them is seen at the room's density beside them:
+    they are the room's (:func:`engine.grammar.passages.furniture_strips`)."""
+    from engine.evaluation.elements import _in_truth_frame
+
+    sc, m, r = _run(results, "two_storey_office", "mobile", 4)
+    assert r["doors"]["true"] == r["doors"]["found"] == r["doors"]["matched"] == 13, r["doors"]
+    mt = _in_truth_frame(m, sc.truth)
+    ground = [w for w in mt.walls if w.bounds[1, 2] < 3.0 and 2.0 < 0.5 * (w.bounds[0, 1] + w.bounds[1, 1]) < 7.0
+              and w.bounds[0, 0] < 10.1 and w.bounds[1, 0] > 9.4 and w.bounds[1, 1] - w.bounds[0, 1] > 3.0]
+    assert len(ground) == 1, [w.bounds.round(2).tolist() for w in ground]
+    lo, hi = ground[0].bounds[:, 0]
+    assert abs(lo - 9.9) <= 0.05 and abs(hi - 10.1) <= 0.05, (lo, hi)  # the partition, 0.2 m thick
+    assert not [o for o in mt.doors + mt.windows if o.parent == ground[0].id]
+    room = next(s for s in mt.spaces if s.bounds[1, 2] < 3.0 and s.bounds[0, 0] > 4.9 and s.bounds[0, 1] > 2.0)
+    assert abs(room.bounds[1, 0] - 9.9) <= 0.05, room.bounds.round(2).tolist()  # 9.4 before
+
+
+@pytest.mark.slow
 def test_half_shadowed_terrace_doors_with_their_reveals_are_found(results):
     """The Duplex, mobile, seed 6: each flat's terrace door (0.81 m, beside a 4.8 m glazed
     wall) is 41-57 % in the shadow of furniture, seen through over 12-17 % and has its jambs

@@ -637,3 +637,59 @@ def test_a_pocket_beside_an_unseen_closet_is_closed_by_the_wall_between(closet_f
         types[i, j, 0] = t
     enclosed_pockets(shapes, types, ManhattanParams(max_wall_thickness=0.3, shape_buffer=0.05))
     assert types[2, 1, 0] == expect and shapes[2, 1, 0].type == expect
+
+
+def _strip_scene(kinds, widths, ceiling_share, seed=0):
+    """Cuboids along y — ``kinds`` of ``widths`` metres, 4 m long in x — with ceiling points
+    of the lowest level: 30 per m² over the room (the first kind), ``ceiling_share`` of that
+    over the others (σ 2 cm spill across their edges)."""
+    from engine.grammar.geometry import box_of
+    from engine.model import Shape
+
+    rng = np.random.default_rng(seed)
+    ys = np.cumsum([0.0] + list(widths))
+    shapes, types, uv = {}, np.empty((1, len(kinds), 1), dtype=object), []
+    for j, t in enumerate(kinds):
+        sup = {"ipof_bottom": 0.9 if j == 0 else 0.05, "ipof_top": 0.9 if j == 0 else 0.1,
+               **{f"ipof_f{q}": (0.1 if j < len(kinds) - 1 else 0.5) for q in (2, 3, 4, 5)}}
+        shapes[(0, j, 0)] = Shape(id=f"c{j}", type=t, geometry=box_of((0, ys[j], 0), (4.0, ys[j + 1], 2.8)),
+                                  grid=(0, j, 0), support=sup, attributes={"thin_axis": None if j == 0 else 1})
+        types[0, j, 0] = t
+        dens = 30.0 * (1.0 if j == 0 else (0.0 if t == ShapeType.WALL else ceiling_share))
+        n = rng.poisson(dens * 4.0 * widths[j])
+        uv.append(np.column_stack([rng.uniform(0, 4.0, n), rng.uniform(ys[j], ys[j + 1], n) + rng.normal(0, 0.02, n)]))
+    return shapes, types, np.vstack(uv), np.array([0.0, 4.0]), ys
+
+
+@pytest.mark.parametrize("case, expect", [
+    ("cabinet", True),       # room | 0.08 | 0.12 | 0.3 m strips | wall: the ceiling over them seen
+    ("thin room part", True),  # the 0.3 m strip by the wall a room of its own (its ceiling index)
+    ("wall body", False),    # no ceiling point over the strips: a wall's body
+    ("sparse", False),       # the ceiling seen at a fifth of the room's density: not enough
+    ("too wide", False),     # the strips 1.2 m across: wider than a pocket
+    ("room beyond", False),  # a room, not a wall, at the run's end: a gap between two rooms
+])
+def test_a_strip_behind_furniture_between_a_room_and_a_wall_is_the_rooms(case, expect):
+    """A tall cabinet against a wall cuts the room at its front: the thin cuboids between it
+    and the wall had a low ceiling index on a sparse scan and came out exterior (two_storey_
+    office mobile: the room ended at the cabinet, a 0.7 m "wall" with a false door beside it).
+    Their ceiling, seen at the room's density beside them, makes them the room's."""
+    from engine.grammar.passages import furniture_strips
+
+    I, E, W = ShapeType.INTERIOR, ShapeType.EXTERIOR, ShapeType.WALL
+    widths = [4.0, 0.08, 0.12, 0.3, 0.2]
+    kinds = [I, E, E, E, W]
+    share = {"cabinet": 0.8, "wall body": 0.0, "sparse": 0.2}.get(case, 0.8)
+    if case == "too wide":
+        widths = [4.0, 0.4, 0.4, 0.4, 0.2]
+    if case == "room beyond":
+        kinds = [I, E, E, E, I]
+    if case == "thin room part":
+        kinds = [I, E, E, I, W]
+    shapes, types, uv, X, Y = _strip_scene(kinds, widths, share)
+    furniture_strips(shapes, types, uv, X, Y, ManhattanParams(), 0.04)
+    got = [types[0, j, 0] for j in (1, 2, 3)]
+    assert got == ([I] * 3 if expect else kinds[1:4]), got
+    if expect:  # their faces across the run are furniture: one space with the room
+        assert [shapes[(0, j, 0)].attributes["joined_faces"] for j in (1, 2, 3)] == [(2, 4), (2, 4), (2,)]
+        assert "behind furniture" in shapes[(0, 3, 0)].log[-1]
