@@ -264,9 +264,12 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
     ceiling's index low (narrow cuboids on a sparse scan: 0.05–0.24 where the room beside
     them reaches 0.8, two_storey_office mobile), so they came out exterior — the room ended at
     the cabinet's front, with a 0.7 m "wall" holding a false door. A run across them, from an
-    interior cuboid (the face between them unseen, IPoF < τ on both) over exterior cuboids on
-    the floor (and thin interior ones the classification made rooms of) to a wall cuboid,
-    each at most ``max_wall_thickness`` and all at most ``pocket_width`` across, closed at
+    interior cuboid wider than a wall both ways (a room part, not a doorway's band; the face
+    between them unseen, IPoF < τ on both) over exterior cuboids on the floor (and thin
+    interior ones the classification made rooms of) to a wall cuboid, each at most
+    ``max_wall_thickness`` across and longer than that along the wall (a strip, not a piece of
+    a wall line: a run along a wall line from a doorway merged a corridor with a room), all
+    at most ``pocket_width`` across, closed at
     its ends (walls, rooms, such runs or the grid's edge, the outermost wall plane; a thin
     interior cuboid's ends by walls), is part of the room when its ceiling is seen at least
     ``strip_density`` of the room's density beside it: points of the lowest ceiling level
@@ -296,10 +299,13 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
         return inside(q) and types[q[0], q[1], 0] == ShapeType.EXTERIOR and \
             not any(types[q[0], q[1], k] == ShapeType.INTERIOR for k in range(1, nz))
 
+    def across(q):  # the cuboid's extent along x and y
+        return np.ptp(shapes[q + (0,)].geometry.bounds[:, :2], axis=0)
+
     runs = []
     for (i, j), t in np.ndenumerate(types[:, :, 0]):
-        if t != ShapeType.INTERIOR:
-            continue
+        if t != ShapeType.INTERIOR or across((i, j)).min() <= t_max:
+            continue  # a room part, not a band of a wall line (a doorway)
         for f, di, dj in _SIDES:
             back = {2: 4, 3: 5, 4: 2, 5: 3}[f]
             run, q = [], (i + di, j + dj)
@@ -308,8 +314,9 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
                     and edges[q[0 if di else 1] + 1] - edges[q[0 if di else 1]] <= t_max:
                 run.append(q)  # ... or a thin part the classification made a room of, between it and the wall
                 q = (q[0] + di, q[1] + dj)
-            if not run or not inside(q) or types[q[0], q[1], 0] != ShapeType.WALL:
-                continue
+            if not run or not inside(q) or types[q[0], q[1], 0] != ShapeType.WALL or \
+                    any(across(c)[1 if di else 0] <= t_max for c in run):
+                continue  # ... and strips along the wall, not pieces of a wall line
             if shapes[(i, j, 0)].support.get(f"ipof_f{f}", 0.0) >= tau or \
                     shapes[run[0] + (0,)].support.get(f"ipof_f{back}", 0.0) >= tau:
                 continue

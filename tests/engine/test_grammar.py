@@ -668,6 +668,7 @@ def _strip_scene(kinds, widths, ceiling_share, seed=0):
     ("sparse", False),       # the ceiling seen at a fifth of the room's density: not enough
     ("too wide", False),     # the strips 1.2 m across: wider than a pocket
     ("room beyond", False),  # a room, not a wall, at the run's end: a gap between two rooms
+    ("doorway band", False),  # from a thin interior part of a wall line (a doorway), not a room
 ])
 def test_a_strip_behind_furniture_between_a_room_and_a_wall_is_the_rooms(case, expect):
     """A tall cabinet against a wall cuts the room at its front: the thin cuboids between it
@@ -684,6 +685,8 @@ def test_a_strip_behind_furniture_between_a_room_and_a_wall_is_the_rooms(case, e
         widths = [4.0, 0.4, 0.4, 0.4, 0.2]
     if case == "room beyond":
         kinds = [I, E, E, E, I]
+    if case == "doorway band":
+        widths = [0.2, 0.08, 0.12, 0.3, 0.2]
     if case == "thin room part":
         kinds = [I, E, E, I, W]
     shapes, types, uv, X, Y = _strip_scene(kinds, widths, share)
