@@ -30,8 +30,9 @@ figures:
   vs the true room count, rooms matched and their mean IoU, as
   :func:`engine.evaluation.rooms.room_scores` counts them: true rooms joined without a wall
   (an open plan, FZK-Haus's kitchen and living room) are one room, and model spaces inside
-  one open plan one space (FZK-Haus's hall split at its beam from the living room); ``truth_spaces`` / ``matched_spaces``: the true spaces one
-  by one and those a model space matches by footprint IoU (they name the graph's nodes).
+  one open plan one space (FZK-Haus's hall split at its beam from the living room);
+  ``truth_spaces`` / ``matched_spaces``: the true spaces one by one and those a model space
+  matches by footprint IoU (they name the graph's nodes).
 * ``walls`` — model wall count vs the *true wall runs*: the truth's wall pieces merged into
   straight runs (parallel within ``run_angle``, centre lines within ``run_offset``, thickness
   within ``run_thickness``, same storey, overlapping, touching within ``run_gap`` or joined

@@ -269,9 +269,9 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
     interior ones the classification made rooms of) to a wall cuboid, each at most
     ``max_wall_thickness`` across and longer than that along the wall (a strip, not a piece of
     a wall line: a run along a wall line from a doorway merged a corridor with a room), all
-    at most ``pocket_width`` across, closed at
-    its ends (walls, rooms, such runs or the grid's edge, the outermost wall plane; a thin
-    interior cuboid's ends by walls), is part of the room when its ceiling is seen at least
+    at most ``pocket_width`` across, closed at its ends (walls, rooms, such runs or the grid's
+    edge, the outermost wall plane; a thin interior cuboid's ends by walls), is part of the
+    room when its ceiling is seen at least
     ``strip_density`` of the room's density beside it: points of the lowest ceiling level
     ``uv`` per m² inside the run (``margin`` — the range noise — in from its long sides)
     against those in the room's band ``strip_band`` (or the run's width) wide along it (a
@@ -312,7 +312,7 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
             edges = X if di else Y
             while (free(q) or (inside(q) and types[q[0], q[1], 0] == ShapeType.INTERIOR and run)) \
                     and edges[q[0 if di else 1] + 1] - edges[q[0 if di else 1]] <= t_max:
-                run.append(q)  # ... or a thin part the classification made a room of, between it and the wall
+                run.append(q)  # ... or a thin part the classification made a room of
                 q = (q[0] + di, q[1] + dj)
             if not run or not inside(q) or types[q[0], q[1], 0] != ShapeType.WALL or \
                     any(across(c)[1 if di else 0] <= t_max for c in run):
