@@ -189,6 +189,10 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
     if dropped:
         cleaning["scanner_positions_dropped"] = dropped
     t["strays"] = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    work, index, voxel = clean(full, params.clean)
+    t["working_cloud"] = time.perf_counter() - t1
+    p.check()
     spacing = tree = None  # only the Manhattan grammar reads them
     if full_normals:  # the working cloud then shares them
         t1 = time.perf_counter()
@@ -197,12 +201,9 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
         t["spacing"] = time.perf_counter() - t1
         t1 = time.perf_counter()
         p(0.0, "normals")
-        full = full_cloud_normals(full, params, spacing, tree=tree)
+        full = full_cloud_normals(full, params, spacing, tree=tree, voxel=voxel)
+        work = work.with_(normals=full.normals[index])
         t["normals_full"] = time.perf_counter() - t1
-    t1 = time.perf_counter()
-    work, index, voxel = clean(full, params.clean)
-    t["working_cloud"] = time.perf_counter() - t1
-    p.check()
     t1 = time.perf_counter()
     if work.normals is None:
         p(0.05, "normals")
@@ -298,16 +299,19 @@ def plausible_scanners(cloud: PointCloud, margin: float, box=None) -> tuple[Poin
 
 
 def full_cloud_normals(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
-                       spacing: Optional[float] = None, tree=None) -> PointCloud:
+                       spacing: Optional[float] = None, tree=None, voxel: float = 0.0) -> PointCloud:
     """``cloud`` with PCA normals of every point (the Manhattan grammar reads them), over at
     least ``normals.radius_spacings`` point spacings (far walls of a terrestrial scan are
-    sparse); unchanged when it has normals. ``tree``: a k-d tree of ``cloud.xyz`` to share."""
+    sparse); unchanged when it has normals. ``tree``: a k-d tree of ``cloud.xyz`` to share.
+    ``voxel``: the working cloud's voxel (:func:`engine.segmentation.cleaning.clean`), whose
+    points share one normal, estimated over their neighbourhood in the full cloud (0: one
+    per point)."""
     if cloud.normals is not None:
         return cloud
     npar = params.normals
     spacing = estimate_spacing(cloud.xyz, tree=tree) if spacing is None else spacing
     return estimate_normals(cloud, replace(npar, radius=max(npar.radius, npar.radius_spacings * spacing)),
-                            tree=tree)
+                            tree=tree, share=voxel)
 
 
 def manhattan_score(planes, angle_tolerance: float = ChoiceParams.angle_tolerance) -> float:

@@ -12,10 +12,10 @@ from typing import Optional
 import numpy as np
 
 from ..threads import thread_cap
-from .kdtree import kdtree
+from .kdtree import kdtree, spatial_order
 
 __all__ = ["knn_pca", "knn_normals", "eigenvalues_3x3", "smallest_eigenpairs", "one_sided_normals",
-           "sheet_normals", "SHEET_TILT"]
+           "sheet_normals", "hybrid_covariances", "SHEET_TILT"]
 
 
 def knn_pca(xyz: np.ndarray, k: int, query: Optional[np.ndarray] = None, *,
@@ -131,8 +131,8 @@ def _neighbour_chunks(xyz: np.ndarray, query: np.ndarray, k: int, radius: float,
         yield s, qi, nb, ok
 
 
-def _masked_pca(cols: list, nb: np.ndarray, qi: np.ndarray, keep: np.ndarray):
-    """Eigenvalues (ascending), the smallest one's unit eigenvector and the count of the
+def _masked_cov(cols: list, nb: np.ndarray, qi: np.ndarray, keep: np.ndarray):
+    """(m, 3, 3) covariance (about their mean, divided by their count) and (m,) count of the
     neighbours ``nb`` (m, k) of query points ``qi`` that ``keep`` (m, k) selects, their
     scatter centred on the query point (digits); ``cols``: the points' contiguous x, y, z."""
     cnt = keep.sum(axis=1)
@@ -143,8 +143,37 @@ def _masked_pca(cols: list, nb: np.ndarray, qi: np.ndarray, keep: np.ndarray):
     for a in range(3):
         for b in range(a, 3):
             cov[:, a, b] = cov[:, b, a] = np.einsum("ij,ij->i", rel[a], rel[b]) * inv - mu[a] * mu[b]
+    return cov, cnt
+
+
+def _masked_pca(cols: list, nb: np.ndarray, qi: np.ndarray, keep: np.ndarray):
+    """Eigenvalues (ascending), the smallest one's unit eigenvector and the count of the
+    selected neighbours (see :func:`_masked_cov`)."""
+    cov, cnt = _masked_cov(cols, nb, qi, keep)
     w, n = smallest_eigenpairs(cov)
     return w, n, cnt
+
+
+def hybrid_covariances(xyz: np.ndarray, query: np.ndarray, k: int, radius: float, *, tree=None,
+                       workers: Optional[int] = None) -> tuple[np.ndarray, np.ndarray]:
+    """Covariances of the query points' hybrid neighbourhoods: at most ``k`` nearest points of
+    ``xyz`` within ``radius`` (the point itself included), as open3d's ``estimate_covariances``
+    forms them, but at chosen query points only.
+
+    Returns ``(cov, count)``: (m, 3, 3) float64 covariances about the neighbours' mean (divided
+    by their count), (m,) int neighbours found."""
+    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    query = np.asarray(query, dtype=np.int64)
+    cov = np.zeros((len(query), 3, 3))
+    cnt = np.zeros(len(query), np.int64)
+    if len(query) == 0 or len(xyz) == 0:
+        return cov, cnt
+    cols = [np.ascontiguousarray(xyz[:, c]) for c in range(3)]
+    order = spatial_order(xyz[query], radius)  # queries in space order: a quarter less time
+    for s, qi, nb, ok in _neighbour_chunks(xyz, query[order], k, radius, tree, workers):
+        at = order[s:s + len(qi)]
+        cov[at], cnt[at] = _masked_cov(cols, nb, qi, ok)
+    return cov, cnt
 
 
 def one_sided_normals(xyz: np.ndarray, view: np.ndarray, query: np.ndarray, k: int, radius: float, *,

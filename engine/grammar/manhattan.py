@@ -746,7 +746,7 @@ def manhattan_model(prep: Prepared, params: Optional[ManhattanParams] = None, *,
     tree = prep.cloud_tree()  # one k-d tree of the full cloud: spacing, normals' fallback, noise
     spacing = prep.spacing if prep.spacing is not None else estimate_spacing(prep.cloud.xyz, tree=tree)
     prep = align(replace(prep, tree=tree), rng=seed, cloud=full_cloud_normals(prep.cloud, prep.params, spacing,
-                                                                              tree=tree))
+                                                                              tree=tree, voxel=prep.voxel))
     aligned = prep.cloud.transformed(np.linalg.inv(prep.transform))  # with normals (align)
     storeys = prep.storeys if prep.storeys_found else None
     if base.spacing is None:

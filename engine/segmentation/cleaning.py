@@ -12,7 +12,8 @@ import numpy as np
 
 from ..errors import EmptyCloudError
 from ..geometry.kdtree import kdtree, spatial_order
-from ..geometry.normals import SHEET_TILT, eigenvalues_3x3, knn_normals, one_sided_normals, sheet_normals
+from ..geometry.normals import (SHEET_TILT, eigenvalues_3x3, hybrid_covariances, knn_normals, one_sided_normals,
+                                sheet_normals, smallest_eigenpairs)
 from ..lazy_open3d import open3d
 from ..pointcloud import PointCloud
 from ..progress import Progress
@@ -225,7 +226,7 @@ def _o3d():
 
 
 def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *, progress=None,
-                     should_stop=None, tree=None) -> PointCloud:
+                     should_stop=None, tree=None, share: float = 0.0) -> PointCloud:
     """PCA normals over a hybrid radius / k-nearest neighbourhood (open3d), one-sided where
     scanner positions are known.
 
@@ -236,6 +237,12 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     params : NormalParams
     tree : a k-d tree of ``cloud.xyz`` (:func:`engine.geometry.kdtree.kdtree`) for the
         fallback below, or None (one is built when a point needs it).
+    share : float
+        0: a normal per point. Otherwise the edge of voxels (metres) whose points share one
+        normal: that of the voxel's first point, over its neighbourhood among *all* points
+        (:func:`engine.geometry.normals.hybrid_covariances`). A dense scan's neighbours of
+        points a few centimetres apart are nearly the same points: one estimate per voxel of
+        the working cloud costs what the working cloud costs, whatever the scan's density.
 
     Returns
     -------
@@ -261,21 +268,26 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         raise EmptyCloudError("normals need at least 3 points", cloud.source or None)
     p = Progress.wrap(progress, should_stop)
     p(0.0, "normals")
-    o3d = _o3d()
-    order = spatial_order(cloud.xyz, params.radius)  # queries in space order: same normals, less time
-    pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.xyz[order]))
-    hybrid = o3d.geometry.KDTreeSearchParamHybrid(radius=params.radius, max_nn=params.max_nn)
     s = _scanner_of_points(cloud)
     one_sided = s is not None and params.one_sided_planarity > 0
     sheets = s is None and params.one_sided_planarity > 0 and params.sheet_gap > 0  # no positions
-    if one_sided or sheets:
-        pc.estimate_covariances(hybrid)  # kept: the normals below reuse them (open3d's own normals)
-    pc.estimate_normals(hybrid)
-    nrm = np.empty((len(cloud), 3))
-    nrm[order] = np.asarray(pc.normals, dtype=np.float64)
+    q = voxel_of = None  # the points estimated (None: every point) and each point's voxel
+    if share > 0:
+        q, voxel_of = _voxel_keys(cloud.xyz, share, True)
+        if len(q) > _SHARE_WORTH * len(cloud):  # hardly two points a voxel: one each
+            q = voxel_of = None
+    if q is None:
+        nrm, cov = _open3d_normals(cloud.xyz, params, one_sided or sheets)
+    else:
+        tree = kdtree(cloud.xyz) if tree is None else tree
+        cov, cnt = hybrid_covariances(cloud.xyz, q, params.max_nn, params.radius, tree=tree)
+        nrm = smallest_eigenpairs(cov)[1]
+        nrm[cnt < 3] = (0.0, 0.0, 1.0)  # open3d's mark of too few neighbours (below)
+        if not (one_sided or sheets):
+            cov = None
+    qx = np.arange(len(cloud)) if q is None else q  # the estimated points' indices in the cloud
     wide = np.zeros(0, np.int64)
-    if one_sided or sheets:
-        cov = np.asarray(pc.covariances)  # in space order
+    if cov is not None:
         # the neighbourhood's radius is about √(2 · trace): only wide ones can reach a second sheet
         trace = cov[:, 0, 0] + cov[:, 1, 1] + cov[:, 2, 2]
         wide = np.flatnonzero(2.0 * trace >= params.one_sided_reach ** 2)
@@ -285,14 +297,12 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
             # two horizontal sheets spread the neighbourhood in height by at least what a sixth
             # of it at ``sheet_gap`` from the rest does: a noisy floor's is not split
             wide = wide[cov[wide, 2, 2] >= (5 / 36) * params.sheet_gap ** 2]
-        wide = order[wide]
         del cov
-    del pc
     # open3d leaves exactly (0, 0, 1) when a neighbourhood has fewer than 3 points
     bad = (~np.isfinite(nrm).all(axis=1) | (np.linalg.norm(nrm, axis=1) < 0.5)
            | ((nrm[:, 0] == 0.0) & (nrm[:, 1] == 0.0)))
     if bad.any():  # too few neighbours within the radius (sparse, far from the scanner)
-        nrm[bad] = knn_normals(cloud.xyz, params.fallback_knn, np.nonzero(bad)[0], tree=tree)
+        nrm[bad] = knn_normals(cloud.xyz, params.fallback_knn, qx[bad], tree=tree)
     redo = wide[~bad[wide]]
     to_scanner = s - cloud.xyz if s is not None else None  # read by both steps below
     if sheets:
@@ -303,27 +313,53 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         redo = redo[(nz >= 0.1) & (nz < np.cos(SHEET_TILT))]
     if len(redo) and sheets:
         tree = kdtree(cloud.xyz) if tree is None else tree
-        n1 = sheet_normals(cloud.xyz, redo, params.max_nn, params.radius, params.sheet_gap,
+        n1 = sheet_normals(cloud.xyz, qx[redo], params.max_nn, params.radius, params.sheet_gap,
                            planarity=params.one_sided_planarity, tree=tree)
         got = np.isfinite(n1).all(axis=1)
         nrm[redo[got]] = n1[got]
-        log.debug("normals: %d of %d points re-estimated over their own sheet", int(got.sum()), len(cloud))
+        log.debug("normals: %d of %d points re-estimated over their own sheet", int(got.sum()), len(nrm))
     elif len(redo):
         # neighbourhoods far from planar and wide enough to reach a second sheet (the other
         # face of a partition, a table's underside): again over the points seen from this side
         with np.errstate(invalid="ignore", divide="ignore"):  # a point at its scanner: NaN, left out
             view = to_scanner / np.linalg.norm(to_scanner, axis=1, keepdims=True)
         tree = kdtree(cloud.xyz) if tree is None else tree
-        n1 = one_sided_normals(cloud.xyz, view, redo, params.max_nn, params.radius, tree=tree)
+        n1 = one_sided_normals(cloud.xyz, view, qx[redo], params.max_nn, params.radius, tree=tree)
         got = np.isfinite(n1).all(axis=1)
         nrm[redo[got]] = n1[got]
-        log.debug("normals: %d of %d points re-estimated from their side", int(got.sum()), len(cloud))
+        log.debug("normals: %d of %d points re-estimated from their side", int(got.sum()), len(nrm))
+    if voxel_of is not None:
+        nrm = nrm[voxel_of]  # every point takes its voxel's (each faces its own scanner below)
     if params.orient_to_scanner and s is not None:
         ok = np.isfinite(s).all(axis=1)
         flip = ok & (np.einsum("ij,ij->i", nrm, to_scanner) < 0)
         nrm[flip] *= -1.0
     p(1.0, "normals done")
     return cloud.with_(normals=nrm.astype(np.float32))
+
+
+_SHARE_WORTH = 0.8
+"""Normals are shared within voxels only when that leaves at most this share of the points to
+estimate."""
+
+
+def _open3d_normals(xyz: np.ndarray, params: NormalParams, covariances: bool):
+    """(n, 3) float64 normals of every point (open3d's hybrid PCA; exactly (0, 0, 1) where
+    fewer than 3 neighbours) and, when ``covariances``, their (n, 3, 3) covariances (else None)."""
+    o3d = _o3d()
+    order = spatial_order(xyz, params.radius)  # queries in space order: same normals, less time
+    pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(xyz[order]))
+    hybrid = o3d.geometry.KDTreeSearchParamHybrid(radius=params.radius, max_nn=params.max_nn)
+    if covariances:
+        pc.estimate_covariances(hybrid)  # kept: the normals below reuse them (open3d's own normals)
+    pc.estimate_normals(hybrid)
+    nrm = np.empty((len(xyz), 3))
+    nrm[order] = np.asarray(pc.normals, dtype=np.float64)
+    cov = None
+    if covariances:
+        cov = np.empty((len(xyz), 3, 3))
+        cov[order] = np.asarray(pc.covariances)
+    return nrm, cov
 
 
 def _scanner_of_points(cloud: PointCloud):

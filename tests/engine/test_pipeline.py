@@ -139,3 +139,30 @@ def test_scanner_positions_outside_the_building_are_dropped(office):
     # positions inside the building's box are kept (a scanner 1 m over the top still is)
     inside = cloud.with_(scanner_positions=sp + [0.0, 0.0, 0.5])
     assert pipeline.plausible_scanners(inside, 1.0)[1] == 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("noise", ["tls", "mobile"])
+def test_normals_shared_within_the_working_voxels_are_as_good_as_per_point(noise):
+    """A dense scan (office_mw, 1M points): the Manhattan grammar's normals estimated once per
+    working-cloud voxel (6-7 cm, a quarter of the points), over that point's neighbourhood in
+    the full cloud, and shared by the voxel's points, are as often axis-aligned as one normal
+    per point (TLS 0.924 against 0.920 within 10°, mobile 0.579 against 0.580 — a mobile
+    scan's range noise spoils both alike), and the partition between Rooms 2 and 3 faces
+    its normal as often (0.998, 0.810 both ways) — at a third to a half of the time."""
+    from engine.geometry.spacing import estimate_spacing
+    from engine.segmentation.cleaning import clean
+
+    sc = preset("office_mw", seed=3, noise=noise, target_points=1_000_000)
+    p = sc.cloud.xyz
+    _, _, voxel = clean(sc.cloud)
+    assert voxel >= 0.05  # the working cloud's voxel grew: about 4 points share one
+    spacing = estimate_spacing(p)
+    per_point = pipeline.full_cloud_normals(sc.cloud, spacing=spacing).normals
+    shared = pipeline.full_cloud_normals(sc.cloud, spacing=spacing, voxel=voxel).normals
+    aligned = [np.mean(np.abs(n).max(axis=1) >= np.cos(np.deg2rad(10))) for n in (per_point, shared)]
+    assert aligned[1] >= aligned[0] - 0.01, aligned  # margin: 1 % of the points
+    wall = ((p[:, 0] > 8.85) & (p[:, 0] < 9.13) & (p[:, 1] > 2.3) & (p[:, 1] < 6.8)
+            & (p[:, 2] > 0.3) & (p[:, 2] < 2.6))
+    facing = [np.mean(np.abs(n[wall, 0]) >= np.cos(np.deg2rad(20))) for n in (per_point, shared)]
+    assert facing[1] >= facing[0] - 0.02, facing  # margin: 2 % of the partition's points
