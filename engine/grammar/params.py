@@ -140,6 +140,10 @@ class RjmcmcParams:
     through that space, :meth:`SpaceSearch.walled_in`) joins it when at least this share of
     its footprint is under the ceiling — a sparsely seen corner; a column or a cupboard
     reaching the ceiling, walled-in too, has no ceiling over it. > 1: off."""
+    walled_in_level: Metres = 0.15
+    """...and when its ceiling layer lies within this of the ceiling over a cell of that space
+    it touches, metres: a strip inside an outer wall between its face and a window's glazing
+    has the window's head for a ceiling, 0.3-0.8 m under the room's."""
     trace_every: Count = 50
     """Record (iteration, log-score, spaces) in the trace every this many iterations."""
 
