@@ -380,3 +380,28 @@ def test_rooms_touching_on_a_wall_seen_in_the_scan_keep_the_wall(case):
     else:  # nothing there, or no wall's height: an open plan
         assert inner == []
         assert ("connectivity", "room0", "room1", None) in rel
+
+
+def test_an_opening_in_a_gap_of_its_walls_side_spans_takes_the_nearest_spans_rooms():
+    """A wall run along a corridor with rooms on its other side, one span per room; a room
+    whose footprint takes in its doorway leaves a gap in its span there. The door in that gap
+    connects that room and the corridor — before, it took the run's first room, 8 m away
+    (office_mw mobile at 1M points: the door graph wrong with every door found)."""
+    from engine.elements.build import _with_spaces
+
+    spans = [[0.0, 4.35, "room5", "corridor"], [4.5, 8.43, "room6", "corridor"],
+             [9.0, 12.0, "room4", "corridor"], [12.42, 13.35, "room4", "corridor"],
+             [13.5, 17.85, "room7", "corridor"]]
+    wall = Shape("w", ShapeType.WALL, Polyhedron.prism([(0, 1.93), (18, 1.93), (18, 2.07), (0, 2.07)], 0, 3),
+                 attributes={"axis_line": [[0.0, 2.0], [18.0, 2.0]], "sides": ["room5", "corridor"],
+                             "side_spans": spans})
+    model = BuildingModel(shapes=(wall,))
+
+    def door(x):
+        return Shape(f"d{x}", ShapeType.DOOR, Polyhedron.prism([(x - 0.45, 1.93), (x + 0.45, 1.93),
+                                                                (x + 0.45, 2.07), (x - 0.45, 2.07)], 0, 2.1),
+                     parent="w")
+
+    assert _with_spaces(door(12.12), model).attributes["spaces"] == ["room4", "corridor"]  # in the gap
+    assert _with_spaces(door(6.0), model).attributes["spaces"] == ["room6", "corridor"]  # in a span
+    assert _with_spaces(door(8.7), model).attributes["spaces"] == ["room6", "corridor"]  # nearer room6's
