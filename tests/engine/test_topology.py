@@ -251,3 +251,10 @@ def test_a_strip_beside_a_cabinet_joins_its_room():
         # no ceiling, no floor, a room of another height, or both faces seen: a wall
         m = model(**change)
         assert m["s0_c001_000_00"].type == W and len(m.spaces) == 2, change
+    # both faces seen (the cabinet's front and the partition behind it) but the ceiling seen
+    # over most of the strip (IPoF(top) ≥ 2τ): no ceiling's edge spills that far over a wall's
+    # inside — a strip of the room (two_storey_office TLS 5 at 200k points: 0.71-0.93, a 0.7 m
+    # "wall" with a 4.7 m full-height "door" in it before)
+    m = model(top=0.75, behind=0.56)
+    assert set(m.top_level("s0_c000_000_00").children) == {"s0_c000_000_00", "s0_c001_000_00"}
+    assert model(top=0.55, behind=0.56)["s0_c001_000_00"].type == W  # under 2τ: a wall still
