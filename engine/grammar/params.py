@@ -141,9 +141,10 @@ class RjmcmcParams:
     its footprint is under the ceiling — a sparsely seen corner; a column or a cupboard
     reaching the ceiling, walled-in too, has no ceiling over it. > 1: off."""
     walled_in_level: Metres = 0.15
-    """...and when its ceiling layer lies within this of the ceiling over a cell of that space
-    it touches, metres: a strip inside an outer wall between its face and a window's glazing
-    has the window's head for a ceiling, 0.3-0.8 m under the room's."""
+    """...and when the space reaches it: through a face that is no seen wall, or under the same
+    ceiling (its ceiling layer within this of that over a cell of the space it touches),
+    metres. A strip inside an outer wall between its face and a window's glazing is behind
+    the wall's face and has the window's head for a ceiling, 0.3-0.8 m under the room's."""
     trace_every: Count = 50
     """Record (iteration, log-score, spaces) in the trace every this many iterations."""
 

@@ -386,21 +386,25 @@ class SpaceSearch:
         seen at a grazing angle leaves too few points on a short face) — and enough of it
         lies under the ceiling (``RjmcmcParams.walled_in_ratio``). No covered cell may lie
         beyond it: a wall cell between the space and a room the search left out (a shelf
-        strip against an outer wall has only walls behind it). And its ceiling must be the
-        space's: its ceiling layer within ``walled_in_level`` of that over a cell of the space
-        it touches (the strip inside an outer wall between its face and a window's glazing
-        has the window's head for a "ceiling", 0.8 m under the room's: syn_house at 1M
-        points took it in, and the wall's face, then 15 cm too far out, showed no window)."""
+        strip against an outer wall has only walls behind it). And the space must reach it:
+        through a face that is no seen wall, or under the same ceiling — its ceiling layer
+        within ``walled_in_level`` of that over a cell of the space it touches (a strip behind
+        a shelf's front). The strip inside an outer wall between its inner face and a window's
+        glazing is neither: the wall's face stands between, and its "ceiling" is the window's
+        head, 0.8 m under the room's (syn_house at 1M points took it in, and the wall's face,
+        then 15 cm too far out, showed no window). A corner cell under a cupboard's top is
+        reached through no wall (hexagon_hall mobile at 300k points)."""
         seen = self.cov.seen
         if seen is None or self.cov.top[c] < self.params.walled_in_ratio * max(self.cov.area[c], 1e-12):
             return False
         cz = self.cov.ceiling_z
-        level = False
+        reached = False
         for fi in self.cfaces[c]:
             a, b = self.face_ab[fi]
             other = b if a == c else a
             if other >= 0 and self.space_of[other] == sid:
-                level |= bool(abs(cz[c] - cz[other]) <= self.params.walled_in_level)  # NaN: False
+                # NaN levels compare False
+                reached |= not seen[fi] or bool(abs(cz[c] - cz[other]) <= self.params.walled_in_level)
                 continue
             if other >= 0 and self.covered[other]:
                 return False
@@ -408,7 +412,7 @@ class SpaceSearch:
                 continue
             if other < 0 or self.space_of[other] >= 0 or not self._wall_cell(other):
                 return False
-        return level
+        return reached
 
     def _wall_cell(self, o: int) -> bool:
         """Whether untyped cell ``o`` is thin against a face it shares with a space."""
