@@ -36,8 +36,8 @@ from scipy import ndimage
 from ..errors import InputError
 from ..geometry.boxes import min_area_box
 from ..model import Polyhedron, Shape, ShapeType, Storey
-from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, leaf_needed, leaf_to_floor,
-                   near_points, observed_columns, on_solid)
+from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, leaf_columns, leaf_needed,
+                   leaf_to_floor, near_points, observed_columns, on_solid)
 from .junctions import hidden_columns
 from .leaves import flush_leaves
 from .params import OpeningParams
@@ -489,8 +489,9 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
                 >= leaf_needed(dd.face[s], c0, c1, max(rb, r0), r1, p) for s in leaf_sides)
     m = _measure(w, dd, rect, side, outer, obs, tol, leafy, p)
     if m and m[4] == "window" and leafy and \
-            leaf_to_floor(dd, c0, c1, rb, int(round((m[2] - w.floor_z) / c)), leaf_sides, p):
-        m = _measure(w, dd, (c0, c1, rb, r1), side, outer, obs, tol, leafy, p) or m  # the leaf to the floor
+            leaf_to_floor(dd, c0, c1, rb, hs := int(round((m[2] - w.floor_z) / c)), leaf_sides, p):
+        a, b = leaf_columns(dd, c0, c1, rb, hs, leaf_sides, p)  # the leaf's width, to the floor
+        m = _measure(w, dd, (a, b, rb, r1), side, outer, obs, tol, leafy, p) or m
     if m is None or (side is not None and m[4] != "door"):
         return None
     el, er, eb, et, kind = m
