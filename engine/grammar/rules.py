@@ -481,7 +481,8 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
         width = min(float(min(size[0], size[1])), _equivalent_width(area, perim))
         height = float(sp.attributes.get("height", size[2]))
         if width < min_width:
-            join = _strip_join(members, by_grid, tau if tau is not None else DEFAULT_TAU, min_floor_evidence)
+            join = _strip_join(members, by_grid, tau if tau is not None else DEFAULT_TAU, min_floor_evidence,
+                               min_width / 2)
             if join:
                 new.extend(join)
                 continue
@@ -503,7 +504,8 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
     return derive_topology(model.replace_shapes(*new), tau)
 
 
-def _strip_join(members: list[Shape], by_grid: dict, tau: float, min_floor: float) -> list[Shape]:
+def _strip_join(members: list[Shape], by_grid: dict, tau: float, min_floor: float,
+                open_width: float = np.inf) -> list[Shape]:
     """A narrow space whose ceiling is seen over every part (IPoF(top) ≥ τ), whose floor
     shows (IPoF(bottom) above ``min_floor`` somewhere) and whose long sides are not both seen
     (IPoF ≥ τ) is no gap inside a wall — that has neither, or shows both of the wall's faces —
@@ -519,14 +521,16 @@ def _strip_join(members: list[Shape], by_grid: dict, tau: float, min_floor: floa
         return []
     # both long sides seen: the two faces of one wall (its top and floor "seen" are the
     # ceiling's and floor's edges), not furniture in front of a wall — unless the ceiling is
-    # seen over most of every part (IPoF(top) ≥ 2τ), which no edge spills over a wall's inside
-    # (two_storey_office at 200k points: a 0.5 m strip behind a cabinet, its ceiling 0.71-0.93
-    # seen, the partition behind it and the cabinet's front both planes — a 0.7 m "wall" with
-    # a 4.7 m full-height "door" in it)
+    # seen over most of every part (IPoF(top) ≥ 2τ) of a strip at least ``open_width`` wide,
+    # which no edge spills over a wall's inside (two_storey_office at 200k points: a 0.5 m
+    # strip behind a cabinet, its ceiling 0.71-0.93 seen, the partition behind it and the
+    # cabinet's front both planes — a 0.7 m "wall" with a 4.7 m full-height "door" in it; the
+    # edges do cover an 11 cm gap between two wall lines)
     b = _bounds_union(members)
     lo, hi = b[:, 0].min(axis=0), b[:, 1].max(axis=0)
     sides = (3, 5) if hi[0] - lo[0] <= hi[1] - lo[1] else (2, 4)
-    open_top = all(float(m.support.get("ipof_top", 0.0)) >= 2.0 * tau for m in members)
+    open_top = float(min(hi[:2] - lo[:2])) >= open_width and \
+        all(float(m.support.get("ipof_top", 0.0)) >= 2.0 * tau for m in members)
     if not open_top and all(np.mean([_face_ipof(m, q) for m in members]) >= tau for q in sides):
         return []
     mine = {m.id for m in members}
