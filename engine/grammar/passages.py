@@ -106,7 +106,13 @@ def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams, uppe
       Duplex's foyer beside its stair, seen from the far end: one ceiling point in 0.12 m²
       where six were due); interior, with no boundary.
 
-    Doors (narrower) keep their rooms apart."""
+    Doors (narrower) keep their rooms apart. A shorter row qualifies when it spans a corridor
+    from side wall to side wall: the wall cuboid at each of its ends runs on across it (wall
+    on both sides along its thin axis), where a doorway's ends are pieces of the wall it
+    pierces, with the rooms beside them; its floor is then seen somewhere along it (IPoF(bottom)
+    above ``min_room_evidence``: not a void), however thinly (the Duplex's 1.96 m hallways,
+    cut by a 13 cm band whose ceiling and floor a far scan barely saw: bedroom doors led into
+    the split-off ends)."""
     if params.min_passage_width <= 0:
         return
     tau = params.tau
@@ -117,8 +123,7 @@ def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams, uppe
             continue
         faces = (5, 3) if ax == 0 else (2, 4)
         nb = [(i - 1, j, k), (i + 1, j, k)] if ax == 0 else [(i, j - 1, k), (i, j + 1, k)]
-        if s.support.get("ipof_bottom", 0.0) < tau or \
-                any(s.support.get(f"ipof_f{q}", 1.0) >= tau for q in faces) or \
+        if any(s.support.get(f"ipof_f{q}", 1.0) >= tau for q in faces) or \
                 not all(q in shapes and types[q] == ShapeType.INTERIOR for q in nb):
             continue
         cand[i, j] = (ax, faces, nb)
@@ -135,7 +140,9 @@ def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams, uppe
         lo = shapes[row[0] + (0,)].geometry.bounds[0]
         hi = shapes[row[-1] + (0,)].geometry.bounds[1]
         long_ax = 1 - ax
-        if hi[long_ax] - lo[long_ax] < params.min_passage_width:
+        floor = [shapes[q + (0,)].support.get("ipof_bottom", 0.0) for q in row]
+        if not (hi[long_ax] - lo[long_ax] >= params.min_passage_width and min(floor) >= tau
+                or max(floor) > params.min_room_evidence and _between_walls(types, row, step, ax)):
             continue
         beam = 1.0 if upper is None else max(upper.share(ax, float(w), float(lo[long_ax]), float(hi[long_ax]))
                                              for w in (lo[ax], hi[ax]))
@@ -145,7 +152,7 @@ def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams, uppe
             if beam < _BEAM_SHARE:
                 shapes[q + (0,)] = s.logged(
                     f"classify: {hi[long_ax] - lo[long_ax]:.2f} m long strip between two interiors, "
-                    f"floor seen (IPoF(bottom)={s.support['ipof_bottom']:.2f}), no wall, nothing over it "
+                    f"floor (IPoF(bottom)={s.support.get('ipof_bottom', 0.0):.2f}), no wall, nothing over it "
                     "near the ceiling "
                     f"({beam:.2f} of its length) -> interior (one room; its ceiling fell between scan lines)",
                     type=ShapeType.INTERIOR, terminal=False)
@@ -154,10 +161,30 @@ def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams, uppe
             wide = int(np.argmax([float(np.ptp(shapes[n].geometry.bounds[:, ax])) for n in nb]))
             shapes[q + (0,)] = s.logged(
                 f"classify: {hi[long_ax] - lo[long_ax]:.2f} m wide passage between two interiors, floor seen "
-                f"(IPoF(bottom)={s.support['ipof_bottom']:.2f}), no wall, a beam or lintel over it "
+                f"(IPoF(bottom)={s.support.get('ipof_bottom', 0.0):.2f}), no wall, a beam or lintel over it "
                 f"({beam:.2f} of its length near the ceiling) -> interior, open to {shapes[nb[wide]].id}",
                 type=ShapeType.INTERIOR, terminal=False,
                 attributes={**s.attributes, "open_face": faces[wide]})
+
+
+def _between_walls(types: np.ndarray, row: list, step: tuple, ax: int) -> bool:
+    """Whether the cuboids just beyond both ends of ``row`` (grid (i, j), along ``step``) are
+    walls that run on across it: no room on either side of each along the thin axis ``ax``
+    (a wall, or a piece of it no scan saw), where a doorway's jambs have the rooms it joins.
+    Past the grid's edge lies the outermost wall plane: the outer wall."""
+    nx, ny = types.shape[:2]
+    across = (1, 0) if ax == 0 else (0, 1)
+
+    def is_(q, kinds):
+        return not (0 <= q[0] < nx and 0 <= q[1] < ny) or types[q[0], q[1], 0] in kinds
+
+    for (i, j), sgn in ((row[0], -1), (row[-1], 1)):
+        e = (i + sgn * step[0], j + sgn * step[1])
+        if not is_(e, (ShapeType.WALL,)) or \
+                not all(is_((e[0] + d * across[0], e[1] + d * across[1]), (ShapeType.WALL, ShapeType.EXTERIOR))
+                        for d in (-1, 1)):
+            return False
+    return True
 
 
 def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -> None:

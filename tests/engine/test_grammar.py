@@ -351,7 +351,6 @@ def _row_of_cuboids(widths, thin_len, bottom, faces, types):
 
 @pytest.mark.parametrize("length, bottom, face, expect", [
     (3.4, 0.99, 0.08, ShapeType.INTERIOR),   # FZK-Haus: 3.4 m under a 0.24 m beam, floor seen -> one open plan
-    (0.9, 0.99, 0.08, ShapeType.EXTERIOR),   # a door's width: the rooms stay apart
     (3.4, 0.05, 0.08, ShapeType.EXTERIOR),   # no floor under it: a wall hidden behind furniture
     (3.4, 0.99, 0.45, ShapeType.EXTERIOR),   # a face of it seen: a wall with a low opening
 ])
@@ -367,6 +366,45 @@ def test_wide_passage_joins_rooms(length, bottom, face, expect):
     shapes, types = _row_of_cuboids((4.0, 0.24, 1.5), length, bottom, {2: face, 4: 0.08}, (I, E, E))
     _wide_passages(shapes, types, ManhattanParams())  # outside on one side: never a passage
     assert shapes[(0, 1, 0)].type == E
+
+
+def _band_between(flank, length=1.96, bottom=0.2, flank_len=1.0):
+    """:func:`_row_of_cuboids` (a 0.13 m band between two rooms, ``length`` long) with a column
+    of cuboids of the types ``flank`` (along y) on either side of it along x."""
+    from engine.grammar.geometry import box_of
+
+    I, E = ShapeType.INTERIOR, ShapeType.EXTERIOR
+    mid, g = _row_of_cuboids((4.0, 0.13, 1.5), length, bottom, {2: 0.0, 4: 0.0}, (I, E, I))
+    shapes, grid = {}, np.empty((3, 3, 1), dtype=object)
+    for i, (x0, x1) in enumerate(((-flank_len, 0.0), (0.0, length), (length, length + flank_len))):
+        for j in range(3):
+            b = mid[(0, j, 0)].geometry.bounds
+            t = g[0, j, 0] if i == 1 else flank[j]
+            shapes[(i, j, 0)] = mid[(0, j, 0)].__class__(**{
+                **mid[(0, j, 0)].__dict__, "id": f"c{i}{j}", "grid": (i, j, 0), "type": t,
+                "geometry": box_of((x0, b[0][1], 0), (x1, b[1][1], 2.5))})
+            grid[i, j, 0] = t
+    return shapes, grid
+
+
+@pytest.mark.parametrize("flank, bottom, expect", [
+    ("WWW", 0.2, ShapeType.INTERIOR),   # the Duplex's 1.96 m hallway: side walls run on across the band
+    ("WWE", 0.2, ShapeType.INTERIOR),   # ... one of them a piece no scan saw (beside a stair's void)
+    ("IWI", 0.2, ShapeType.EXTERIOR),   # a doorway: its jambs are pieces of the wall it pierces, rooms beside
+    ("WWW", 0.05, ShapeType.EXTERIOR),  # no floor seen under it: a void, not a floor
+])
+def test_a_band_across_a_corridor_between_its_side_walls_joins_its_parts(flank, bottom, expect):
+    """A thin band whose ceiling a far scan missed, between two parts of a hallway 1.96 m wide
+    (under ``min_passage_width``): when the walls at its ends run on across it — the hallway's
+    side walls — it is part of the hallway, not a doorway (whose ends are the pierced wall's
+    pieces, with the rooms beside them). The Duplex at 200k points (TLS): both hallways of its
+    upper level were cut in two and the bedrooms' doors led into the split-off ends."""
+    from engine.grammar.passages import wide_passages as _wide_passages
+
+    kinds = {"W": ShapeType.WALL, "E": ShapeType.EXTERIOR, "I": ShapeType.INTERIOR}
+    shapes, types = _band_between([kinds[c] for c in flank], bottom=bottom)
+    _wide_passages(shapes, types, ManhattanParams())
+    assert shapes[(1, 1, 0)].type == expect and types[1, 1, 0] == expect
 
 
 def _two_columns(lengths, bottom=0.99):
