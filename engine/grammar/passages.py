@@ -109,10 +109,10 @@ def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams, uppe
     Doors (narrower) keep their rooms apart. A shorter row qualifies when it spans a corridor
     from side wall to side wall: the wall cuboid at each of its ends runs on across it (wall
     on both sides along its thin axis), where a doorway's ends are pieces of the wall it
-    pierces, with the rooms beside them; its floor is then seen somewhere along it (IPoF(bottom)
-    above ``min_room_evidence``: not a void), however thinly (the Duplex's 1.96 m hallways,
-    cut by a 13 cm band whose ceiling and floor a far scan barely saw: bedroom doors led into
-    the split-off ends)."""
+    pierces, with the rooms beside them; its floor or its ceiling is then seen somewhere along
+    it (IPoF above ``min_room_evidence``: a wall's body shows neither), however thinly (the
+    Duplex's 1.96 m hallways, cut by a 13 cm band whose ceiling and floor a far scan barely
+    saw: bedroom doors led into the split-off ends)."""
     if params.min_passage_width <= 0:
         return
     tau = params.tau
@@ -141,8 +141,9 @@ def wide_passages(shapes: dict, types: np.ndarray, params: ManhattanParams, uppe
         hi = shapes[row[-1] + (0,)].geometry.bounds[1]
         long_ax = 1 - ax
         floor = [shapes[q + (0,)].support.get("ipof_bottom", 0.0) for q in row]
+        seen = max(floor + [shapes[q + (0,)].support.get("ipof_top", 0.0) for q in row])
         if not (hi[long_ax] - lo[long_ax] >= params.min_passage_width and min(floor) >= tau
-                or max(floor) > params.min_room_evidence and _between_walls(types, row, step, ax)):
+                or seen > params.min_room_evidence and _between_walls(types, row, step, ax)):
             continue
         beam = 1.0 if upper is None else max(upper.share(ax, float(w), float(lo[long_ax]), float(hi[long_ax]))
                                              for w in (lo[ax], hi[ax]))

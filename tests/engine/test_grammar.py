@@ -368,13 +368,14 @@ def test_wide_passage_joins_rooms(length, bottom, face, expect):
     assert shapes[(0, 1, 0)].type == E
 
 
-def _band_between(flank, length=1.96, bottom=0.2, flank_len=1.0):
+def _band_between(flank, length=1.96, bottom=0.2, flank_len=1.0, top=0.0):
     """:func:`_row_of_cuboids` (a 0.13 m band between two rooms, ``length`` long) with a column
     of cuboids of the types ``flank`` (along y) on either side of it along x."""
     from engine.grammar.geometry import box_of
 
     I, E = ShapeType.INTERIOR, ShapeType.EXTERIOR
     mid, g = _row_of_cuboids((4.0, 0.13, 1.5), length, bottom, {2: 0.0, 4: 0.0}, (I, E, I))
+    mid[(0, 1, 0)] = mid[(0, 1, 0)].with_(support={**mid[(0, 1, 0)].support, "ipof_top": top})
     shapes, grid = {}, np.empty((3, 3, 1), dtype=object)
     for i, (x0, x1) in enumerate(((-flank_len, 0.0), (0.0, length), (length, length + flank_len))):
         for j in range(3):
@@ -387,13 +388,14 @@ def _band_between(flank, length=1.96, bottom=0.2, flank_len=1.0):
     return shapes, grid
 
 
-@pytest.mark.parametrize("flank, bottom, expect", [
-    ("WWW", 0.2, ShapeType.INTERIOR),   # the Duplex's 1.96 m hallway: side walls run on across the band
-    ("WWE", 0.2, ShapeType.INTERIOR),   # ... one of them a piece no scan saw (beside a stair's void)
-    ("IWI", 0.2, ShapeType.EXTERIOR),   # a doorway: its jambs are pieces of the wall it pierces, rooms beside
-    ("WWW", 0.05, ShapeType.EXTERIOR),  # no floor seen under it: a void, not a floor
+@pytest.mark.parametrize("flank, bottom, top, expect", [
+    ("WWW", 0.2, 0.0, ShapeType.INTERIOR),   # the Duplex's 1.96 m hallway: side walls run on across the band
+    ("WWE", 0.2, 0.0, ShapeType.INTERIOR),   # ... one of them a piece no scan saw (beside a stair's void)
+    ("WWW", 0.0, 0.11, ShapeType.INTERIOR),  # its floor unseen, a little of its ceiling seen (TLS seed 5)
+    ("IWI", 0.2, 0.0, ShapeType.EXTERIOR),   # a doorway: its jambs are pieces of the wall it pierces
+    ("WWW", 0.05, 0.05, ShapeType.EXTERIOR),  # neither floor nor ceiling seen: a wall's body (faces unseen)
 ])
-def test_a_band_across_a_corridor_between_its_side_walls_joins_its_parts(flank, bottom, expect):
+def test_a_band_across_a_corridor_between_its_side_walls_joins_its_parts(flank, bottom, top, expect):
     """A thin band whose ceiling a far scan missed, between two parts of a hallway 1.96 m wide
     (under ``min_passage_width``): when the walls at its ends run on across it — the hallway's
     side walls — it is part of the hallway, not a doorway (whose ends are the pierced wall's
@@ -402,7 +404,7 @@ def test_a_band_across_a_corridor_between_its_side_walls_joins_its_parts(flank, 
     from engine.grammar.passages import wide_passages as _wide_passages
 
     kinds = {"W": ShapeType.WALL, "E": ShapeType.EXTERIOR, "I": ShapeType.INTERIOR}
-    shapes, types = _band_between([kinds[c] for c in flank], bottom=bottom)
+    shapes, types = _band_between([kinds[c] for c in flank], bottom=bottom, top=top)
     _wide_passages(shapes, types, ManhattanParams())
     assert shapes[(1, 1, 0)].type == expect and types[1, 1, 0] == expect
 
