@@ -296,6 +296,10 @@ class ManhattanParams:
     level_exposed: Ratio = 0.5
     """A horizontal level is a ceiling when at least this share of its cells has no
     horizontal surface above it in the storey (a floor: nothing below)."""
+    floor_share: Ratio = 0.25
+    """The storey's floor is the lowest floor level (nothing below it) with at least this
+    share of the largest one's area: the ground outside a door, seen through it a few
+    centimetres under the floor, is no storey floor."""
 
     def to_dict(self) -> dict:
         return asdict(self)

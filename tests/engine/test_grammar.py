@@ -611,6 +611,23 @@ def test_a_storey_without_a_ceiling_level_keeps_the_preprocessings_top():
     assert given_frame([floor], (2.700, 2.700 + 0.9 * params.min_storey_height), params) is None
 
 
+def test_the_ground_seen_through_a_door_is_not_the_storeys_floor():
+    """FZK-Haus at 1M points (TLS): the ground outside the front door, 5 cm under the floor and
+    seen through the door, made a 3 m² level with nothing below it under the 90 m² floor. As
+    the lowest such level it was the storey's floor: every room's floor lay 5 cm above it, none
+    was seen, and the evidence rule removed all five rooms. The floor is the lowest level with
+    nothing below it and a quarter of the largest one's area; a sunken part as large stays the
+    floor."""
+    from engine.grammar.place import Level, storey_frame
+
+    params = ManhattanParams()
+    ceiling = Level(2.502, 90.9, 1.0, 0.0)
+    fr = storey_frame([Level(-0.052, 3.0, 0.0, 1.0), Level(0.002, 93.9, 0.0, 0.95), ceiling], params)
+    assert fr.floor == pytest.approx(0.002) and fr.ceilings == (pytest.approx(2.502),)
+    fr = storey_frame([Level(-0.3, 30.0, 0.0, 1.0), Level(0.002, 63.9, 0.0, 0.95), ceiling], params)
+    assert fr.floor == pytest.approx(-0.3)
+
+
 @pytest.mark.parametrize("ceiling_over_it, expect", [
     (False, ShapeType.EXTERIOR),  # only the ceiling's noise near the wall's faces: part of the doorway
     (True, ShapeType.INTERIOR),   # the ceiling runs on over it: not under a lintel
