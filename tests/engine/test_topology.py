@@ -261,3 +261,26 @@ def test_a_strip_beside_a_cabinet_joins_its_room():
     # ... nor over a gap narrower than half the least room width: the ceiling's edges cover it
     # (the Duplex mobile at 300k points: an 11 cm gap between two wall lines became a space)
     assert model(top=0.75, behind=0.56, width=0.11)["s0_c001_000_00"].type == W
+
+
+def test_a_strip_does_not_join_another_narrow_space():
+    """two_storey_office TLS 7 at 200k points: behind a cabinet, a 0.3 m strip (its ceiling seen
+    over 69 %) and a 0.2 m one beside it, a seen face between them, were two narrow spaces. The
+    strip joined the 0.2 m one, which the same rule then made a wall (too narrow for the open
+    ceiling's exception): the strip was left a 1.45 m² "Corridor" (15 spaces for 14 rooms). A
+    strip joins a room, not another narrow space: both are walls here."""
+    from engine.grammar.rules import reject_implausible_spaces
+
+    I, W = ShapeType.INTERIOR, ShapeType.WALL
+
+    def narrow(i, x0, x1, top):
+        p = _part(i, 0, (x0, 0, 0), (x1, 6, 2.5), I)
+        return p.with_(support={**p.support, "ipof_f1": top, "ipof_top": top, "ipof_f0": 0.4,
+                                "ipof_bottom": 0.4, "ipof_f3": 0.31, "ipof_f5": 0.55})
+
+    shapes = [_part(0, 0, (0, 0, 0), (4, 6, 2.5), I), _part(1, 0, (4, 0, 0), (4.2, 6, 2.5), W),
+              narrow(2, 4.2, 4.52, 0.69), narrow(3, 4.52, 4.72, 0.93), _part(4, 0, (4.72, 0, 0), (8, 6, 2.5), I)]
+    m = BuildingModel(shapes=tuple(shapes), provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
+    m = reject_implausible_spaces(derive_topology(m), 0.6, 1.0, 1.8, 0.3, min_floor_evidence=0.1)
+    assert len(m.spaces) == 2, [(s.id, s.children) for s in m.spaces]
+    assert m["s0_c002_000_00"].type == W and m["s0_c003_000_00"].type == W
