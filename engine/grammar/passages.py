@@ -181,9 +181,9 @@ def _between_walls(types: np.ndarray, row: list, step: tuple, ax: int) -> bool:
 
     for (i, j), sgn in ((row[0], -1), (row[-1], 1)):
         e = (i + sgn * step[0], j + sgn * step[1])
+        sides = [(e[0] + d * across[0], e[1] + d * across[1]) for d in (-1, 1)]
         if not is_(e, (ShapeType.WALL,)) or \
-                not all(is_((e[0] + d * across[0], e[1] + d * across[1]), (ShapeType.WALL, ShapeType.EXTERIOR))
-                        for d in (-1, 1)):
+                not all(is_(q, (ShapeType.WALL, ShapeType.EXTERIOR)) for q in sides):
             return False
     return True
 

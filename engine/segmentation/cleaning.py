@@ -12,8 +12,8 @@ import numpy as np
 
 from ..errors import EmptyCloudError
 from ..geometry.kdtree import kdtree, spatial_order
-from ..geometry.normals import (SHEET_TILT, eigenvalues_3x3, hybrid_covariances, knn_normals, one_sided_normals,
-                                sheet_normals, smallest_eigenpairs)
+from ..geometry.normals import (SHEET_TILT, eigenvalues_3x3, hybrid_covariances, knn_normals,
+                                one_sided_normals, sheet_normals, smallest_eigenpairs)
 from ..lazy_open3d import open3d
 from ..pointcloud import PointCloud
 from ..progress import Progress

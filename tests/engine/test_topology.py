@@ -238,7 +238,8 @@ def test_a_strip_beside_a_cabinet_joins_its_room():
         strip = strip.with_(support={**strip.support, "ipof_f0": floor, "ipof_bottom": floor,
                                      "ipof_f1": top, "ipof_top": top, "ipof_f5": 0.36, "ipof_f3": behind})
         shapes = [room.with_(support={**room.support, "ipof_f3": 0.36}), strip,
-                  _part(2, 0, (4 + width, 0, 0), (4.57, 3, 2.5), W), _part(3, 0, (4.57, 0, 0), (7, 3, 2.5), I)]
+                  _part(2, 0, (4 + width, 0, 0), (4.57, 3, 2.5), W),
+                  _part(3, 0, (4.57, 0, 0), (7, 3, 2.5), I)]
         m = BuildingModel(shapes=tuple(shapes), provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
         return reject_implausible_spaces(derive_topology(m), 0.6, 1.0, 1.8, 0.3, min_floor_evidence=0.1)
 
@@ -279,8 +280,10 @@ def test_a_strip_does_not_join_another_narrow_space():
                                 "ipof_bottom": 0.4, "ipof_f3": 0.31, "ipof_f5": 0.55})
 
     shapes = [_part(0, 0, (0, 0, 0), (4, 6, 2.5), I), _part(1, 0, (4, 0, 0), (4.2, 6, 2.5), W),
-              narrow(2, 4.2, 4.52, 0.69), narrow(3, 4.52, 4.72, 0.93), _part(4, 0, (4.72, 0, 0), (8, 6, 2.5), I)]
-    m = BuildingModel(shapes=tuple(shapes), provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
+              narrow(2, 4.2, 4.52, 0.69), narrow(3, 4.52, 4.72, 0.93),
+              _part(4, 0, (4.72, 0, 0), (8, 6, 2.5), I)]
+    m = BuildingModel(shapes=tuple(shapes),
+                      provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
     m = reject_implausible_spaces(derive_topology(m), 0.6, 1.0, 1.8, 0.3, min_floor_evidence=0.1)
     assert len(m.spaces) == 2, [(s.id, s.children) for s in m.spaces]
     assert m["s0_c002_000_00"].type == W and m["s0_c003_000_00"].type == W
