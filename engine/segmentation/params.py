@@ -199,8 +199,8 @@ class PlaneParams:
     half, radians."""
     min_fill: Ratio = 0.15
     """A plane's support must occupy at least this share of its bounding rectangle on the
-    plane (10 cm cells): occluded walls still fill a good part of it, chance alignments
-    of clutter do not."""
+    plane (10 cm cells, or twice the support's median spacing where it is sparser): occluded
+    walls still fill a good part of it, chance alignments of clutter do not."""
     max_rejections: Count = 5
     """Stop searching a tile after this many rejected hypotheses in a row (only clutter is
     left)."""

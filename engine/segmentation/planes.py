@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..errors import InputError, ReconstructionError
 from ..model import Storey
@@ -243,19 +244,40 @@ def _bent_half(normal, P, inl, params: PlaneParams):
     return mask
 
 
-def _fill(kind, normal, pts) -> float:
-    """Share of the support's bounding rectangle (on the plane) its points occupy, on the
-    ``_AREA_CELL`` grid: near 1 for a wall, tiny for points of scattered objects that
-    happen to line up."""
+def _plane_coords(kind, normal, pts) -> np.ndarray:
+    """2D coordinates of points on a plane: (along, z) on a wall, (x, y) on a floor."""
     if kind == "wall":
         u = np.array([-normal[1], normal[0]])
-        coords = np.c_[pts[:, :2] @ u, pts[:, 2]]
-    else:
-        coords = pts[:, :2]
-    q = np.floor(coords / _AREA_CELL).astype(np.int64)
+        return np.c_[pts[:, :2] @ u, pts[:, 2]]
+    return pts[:, :2]
+
+
+def _fill_at(coords, cell: float) -> float:
+    q = np.floor(coords / cell).astype(np.int64)
     q -= q.min(axis=0)
     dims = q.max(axis=0) + 1
     return len(np.unique(q[:, 0] * dims[1] + q[:, 1])) / float(dims[0] * dims[1])
+
+
+def _filled(kind, normal, pts, min_fill: float, spacing=None) -> bool:
+    """Whether the support fills ``min_fill`` of its bounding rectangle on the plane: near 1
+    for a wall, tiny for points of scattered objects that happen to line up.
+
+    Measured on the ``_AREA_CELL`` grid, or where the scan is sampled more sparsely than
+    that around the support (a wall seen from far, or only through a door, on a sparse
+    scan: 20 points a square metre can never fill 15 % of 10 cm cells) on a grid of twice
+    the median distance from a support point to its nearest other point of the tile
+    (``spacing(pts)``), about one point a cell on a surface sampled evenly. Clutter that
+    lines up is a few objects, each sampled as densely as the scan, and the sparse noise
+    tail of a wall lies beside the wall's dense points: their spacing stays small and their
+    fill low."""
+    coords = _plane_coords(kind, normal, pts)
+    if _fill_at(coords, _AREA_CELL) >= min_fill:
+        return True
+    if spacing is None or len(coords) < 3:
+        return False
+    cell = 2.0 * spacing(pts)
+    return cell > _AREA_CELL and _fill_at(coords, cell) >= min_fill
 
 
 def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng, band=None):
@@ -264,6 +286,13 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng, band=None):
     pool = np.arange(len(pts))
     cos_agree = np.cos(params.normal_agreement)
     rejected = 0
+    tree = []
+
+    def spacing(sup):  # median distance to the nearest other point of the tile
+        if not tree:
+            tree.append(cKDTree(pts))
+        return float(np.median(tree[0].query(sup, k=2)[0][:, 1]))
+
     while len(pool) >= params.min_points and len(out) < params.max_planes_per_tile:
         P, N = pts[pool], nrm[pool]
         h = params.iterations
@@ -313,7 +342,7 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng, band=None):
             ext = t.max() - t.min()
         else:
             ext = float(np.max(sup[:, :2].max(axis=0) - sup[:, :2].min(axis=0)))
-        if ext < params.min_extent or _fill(kind, normal, sup) < params.min_fill:
+        if ext < params.min_extent or not _filled(kind, normal, sup, params.min_fill, spacing):
             # drop the hypothesis' inliers from the pool anyway so the search moves on
             # (they may still join a plane in the final assignment)
             pool = pool[~inl]
