@@ -135,6 +135,11 @@ class RjmcmcParams:
     """After the search, an untyped covered cell between several spaces with no seen wall
     face towards any of them joins them into one space (rooms meeting without a wall are
     one space, issue 19); off: the search's split stands."""
+    join_open_width: Metres = 2.0
+    """...unless the cell is no thicker than a wall (``max_wall_thickness``) and open towards
+    one of the spaces over less than this, metres: a gap in a wall line (a doorway, or the
+    unseen end of a partition), not rooms meeting without a wall; the Manhattan grammar's
+    ``min_passage_width``."""
     walled_in_ratio: Ratio = 0.1
     """An untyped cell adjacent to exactly one space and walled in otherwise (no way out but
     through that space, :meth:`SpaceSearch.walled_in`) joins it when at least this share of

@@ -432,6 +432,23 @@ class SpaceSearch:
                 return False
         return True
 
+    def _doorway(self, c: int) -> bool:
+        """Whether cell ``c`` between spaces is a gap in a wall line rather than where rooms
+        meet without a wall: no thicker than a wall against the spaces, and open towards one
+        of them over less than ``join_open_width`` (syn_house mobile at 100k points: the
+        last 30 cm of a partition before a T-junction, both its faces unseen and the
+        ceiling's edges spilling over it, joined the two rooms beside it)."""
+        if self.cells.wall_thickness(c, self.cfaces[c], self.space_of >= 0) > self.params.max_wall_thickness:
+            return False
+        length: dict = {}
+        for fi in self.cfaces[c]:
+            a, b = self.face_ab[fi]
+            other = b if a == c else a
+            if other >= 0 and self.space_of[other] >= 0:
+                sid = int(self.space_of[other])
+                length[sid] = length.get(sid, 0.0) + self.cells.faces[fi].length
+        return min(length.values(), default=0.0) < self.params.join_open_width
+
     def _open_to(self, c: int) -> set:
         """The one space a covered untyped cell ``c`` opens to when every face it shares with
         its other adjacent spaces is a seen wall (empty otherwise): a sparse scan sees a wall
@@ -466,6 +483,8 @@ class SpaceSearch:
                     continue
                 adj = self.adjacent_spaces(c)
                 if len(adj) > 1 and self.params.join_open and self._open_between(c):
+                    if self._doorway(c):
+                        continue
                     remove, add = self.move_add_merge(c)
                     if self.space_terms(add[0]).prior_ok:
                         self.apply(remove, add)
