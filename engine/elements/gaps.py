@@ -98,9 +98,26 @@ def _rectangle(mask: np.ndarray, share: float, bridge: int) -> tuple[int, int, i
     return c0, c1, r0, r1
 
 
-def _merge(rects: list, gap: int) -> list:
+def _bar(mask: np.ndarray, a, b, axis: int, share: float = 0.9) -> bool:
+    """Whether a solid bar separates rectangles ``a`` and ``b`` [c0, c1, r0, r1] of the empty
+    ``mask``: a row (``axis`` 1: one above the other) or column (0: side by side) between
+    them, solid over ``share`` of their common extent — a transom or mullion between two
+    windows, where noise leaves scattered points only."""
+    if axis == 1:
+        lo, hi = min(a[3], b[3]), max(a[2], b[2])
+        x0, x1 = max(a[0], b[0]), min(a[1], b[1])
+        band = mask[x0:x1, lo:hi]
+        return hi > lo and x1 > x0 and bool((np.mean(~band, axis=0) >= share).any())
+    lo, hi = min(a[1], b[1]), max(a[0], b[0])
+    y0, y1 = max(a[2], b[2]), min(a[3], b[3])
+    band = mask[lo:hi, y0:y1]
+    return hi > lo and y1 > y0 and bool((np.mean(~band, axis=1) >= share).any())
+
+
+def _merge(rects: list, gap: int, mask: Optional[np.ndarray] = None) -> list:
     """Merge rectangles [c0, c1, r0, r1] closer than ``gap`` cells along one axis that overlap
-    along the other by half the larger one's extent."""
+    along the other by half the larger one's extent, unless a solid bar of ``mask`` lies
+    between them (:func:`_bar`)."""
     rects = [list(r) for r in rects]
     i = 0
     while i < len(rects):
@@ -109,7 +126,12 @@ def _merge(rects: list, gap: int) -> list:
             du, dz = max(a[0], b[0]) - min(a[1], b[1]), max(a[2], b[2]) - min(a[3], b[3])
             ou = -du / max(1, a[1] - a[0], b[1] - b[0])  # overlap share of the larger one
             oz = -dz / max(1, a[3] - a[2], b[3] - b[2])
-            if (du <= gap and oz >= 0.5) or (dz <= gap and ou >= 0.5):
+            side = du <= gap and oz >= 0.5
+            stacked = dz <= gap and ou >= 0.5
+            if mask is not None and ((side and du > 0 and _bar(mask, a, b, 0))
+                                     or (stacked and dz > 0 and _bar(mask, a, b, 1))):
+                continue
+            if side or stacked:
                 rects[i] = [min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])]
                 del rects[j]
                 i = -1
@@ -149,7 +171,7 @@ def gap_rectangles(mask: np.ndarray, p: OpeningParams) -> list:
             rest[max(0, c0 - bridge - 1):c1 + bridge + 1] = False
             if rest.sum() >= 4:
                 todo.append((rest, x0, y0))
-    return _merge(rects, bridge)
+    return _merge(rects, bridge, mask)
 
 
 def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 0.0) -> Optional[float]:

@@ -267,6 +267,34 @@ def test_a_window_to_the_sky_behind_a_pole_is_a_window(rays):
 
 
 @pytest.mark.parametrize("rays", [True, False])
+@pytest.mark.parametrize("transom", [0.07, 0.1])
+def test_windows_stacked_over_a_transom_are_two_windows(rays, transom):
+    """Two 0.8 m windows one above the other (sills 0.9 m and 1.65 m + the transom) with a
+    7-10 cm transom between them, a facade outside (the Duplex's stacked bedroom windows):
+    the transom is a solid row across both holes, and the two gaps stay two windows (within
+    ``merge_gap`` they were joined into one 1.5 m window: Duplex TLS at 1M points, 20 of 22
+    windows found)."""
+    u0, u1, top = 1.5, 2.3, 2.4
+    mid = 1.65
+    outside = [((-5.0, -6.2, 0.0), (L + 5.0, -6.0, 8.0)), ((-5.0, -6.0, -0.2), (L + 5.0, -T_EXT / 2, 0.0))]
+    half = T_EXT / 2
+    wall = _holed_wall(T_EXT, (u0, u1, 0.9, top)) + [((u0, -half, mid), (u1, half, mid + transom))]
+    boxes = _room(half, 4.0) + wall + outside
+    walls = [_wall("w_ext", 0.0, 0.0, L, T_EXT, ("room_a", None), True)]
+    xyz, idx, pos = _scan(boxes, [(1.0, 2.5, 1.5), (3.6, 1.8, 1.5)])
+    ops = detect_openings(walls, [STOREY], xyz, scan_index=idx if rays else None,
+                          scanner_positions=pos if rays else None, exterior_ids={0: "outside_0"})
+    got = sorted((o.attributes["kind"], round(o.attributes["sill"], 2), round(o.attributes["height"], 2),
+                  round(o.attributes["width"], 2)) for o in ops)
+    assert len(got) == 2 and all(k == "window" for k, *_ in got), got
+    (_, s0, h0, w0), (_, s1, h1, w1) = got
+    assert abs(s0 - 0.9) <= 0.05 and abs(s0 + h0 - mid) <= 0.05, got
+    # the upper sill lies on the transom: the scanners below see its underside, not its top
+    assert mid - 0.03 <= s1 <= mid + transom + 0.03 and abs(s1 + h1 - top) <= 0.05, got
+    assert abs(w0 - 0.8) <= 0.05 and abs(w1 - 0.8) <= 0.05, got
+
+
+@pytest.mark.parametrize("rays", [True, False])
 @pytest.mark.parametrize("sill", [0.1, 0.15])
 def test_a_tall_window_with_a_low_sill_is_a_window_not_a_door(rays, sill):
     """A 0.8 m wide window from a low sill (closer to the floor than floor_tolerance) to
