@@ -253,8 +253,9 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     normals : (n, 3) float64 — unit normals (sign free unless ``oriented``).
     frame : the storey's floor and ceiling levels.
     storey : storey index. params : grammar parameters. spacing : σ, metres.
-    oriented : the normals face their scanners: a wall's second face seen over little of
-        its area then still makes a cut (:func:`.place.paired_faces`).
+    oriented : the normals face their scanners. A wall's second face seen over little of its
+        area still makes a cut (:func:`.place.paired_faces`), told from the sides its normals
+        face, or without orientation from the side it is open to.
 
     Returns the classified parts (cuboids), not yet merged.
     """
@@ -282,11 +283,10 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     raw = []
     for a in (0, 1):
         found = peaks_of(a, params.min_wall_area)
-        if oriented:
-            sel = along[a]
-            sa = normals[inz, a] if not inz.all() else normals[:, a]
-            found = paired_faces(found, p[sel, a], np.column_stack([p[sel, 1 - a], p[sel, 2]]), sa[sel],
-                                 params, spacing, weak=peaks_of(a, params.min_paired_wall_area))
+        sel = along[a]
+        sa = (normals[inz, a] if not inz.all() else normals[:, a])[sel] if oriented else None
+        found = paired_faces(found, p[sel, a], np.column_stack([p[sel, 1 - a], p[sel, 2]]), sa,
+                             params, spacing, weak=peaks_of(a, params.min_paired_wall_area))
         raw.append(found)
     top_band = np.zeros(len(p), dtype=bool)  # the only points _reaches_ceiling reads
     for lo, hi in _top_bands(frame, params):

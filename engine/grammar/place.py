@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -143,21 +144,47 @@ _SPAN_CELL = 0.1
 """Cells (metres) along a wall in which :func:`paired_faces` compares the extents of two faces."""
 
 
-def _face_side_and_span(t: np.ndarray, sign: np.ndarray, along: np.ndarray, position: float,
+def _face_side_and_span(t: np.ndarray, sign: Optional[np.ndarray], along: np.ndarray, position: float,
                         bs: float) -> tuple[int, set]:
     """The side (+1 / −1 along the axis) a surface at ``position`` is seen from — the sign
     most of its points' oriented normals agree on (``sign`` (n,), the normals' component along
-    the axis), 0 when fewer than 10 points or no clear majority (80 %) — and the cells of
-    ``_SPAN_CELL`` along the wall (``along`` (n,), metres) its points occupy."""
+    the axis; None: not known, 1), 0 when fewer than 10 points or no clear majority (80 %) —
+    and the cells of ``_SPAN_CELL`` along the wall (``along`` (n,), metres) its points
+    occupy."""
     near = np.abs(t - position) <= 1.5 * bs
     if int(near.sum()) < 10:
         return 0, set()
-    m = float(np.mean(np.sign(sign[near])))
+    m = 1.0 if sign is None else float(np.mean(np.sign(sign[near])))
     span = set(np.unique(np.floor(along[near] / _SPAN_CELL).astype(np.int64)).tolist())
     return (int(np.sign(m)) if abs(m) >= 0.6 else 0), span
 
 
-def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: np.ndarray, params: ManhattanParams,
+def _back_to_back(t: np.ndarray, along: np.ndarray, z: np.ndarray, a: float, b: float, bs: float,
+                  reach: float) -> bool:
+    """Without oriented normals: whether the surfaces at ``a`` and ``b`` (positions along the
+    axis) are open away from each other — where both have points (columns of ``_SPAN_CELL``
+    along the wall and in height), most points of each have surfaces facing the axis within
+    ``reach`` on the other's side only (the other face, 10-50 cm behind) and none on their
+    own (the room before them). A partition's two faces are; a surface with a cabinet's front
+    before it is not (it has surfaces on both sides there)."""
+    key = np.floor(along / _SPAN_CELL).astype(np.int64) * 100_003 + np.floor(z / _SPAN_CELL).astype(np.int64)
+    band = 1.5 * bs
+    on = [np.abs(t - c) <= band for c in (a, b)]
+    common = np.intersect1d(key[on[0]], key[on[1]])
+    for c, o, m in ((a, b, on[0]), (b, a, on[1])):
+        k = key[m]
+        k = k[np.isin(k, common)]
+        if len(k) < 10:
+            return False
+        d = (t - c) * np.sign(o - c)  # > 0 towards the other face
+        towards = np.isin(k, key[(d > band) & (d <= reach)])
+        away = np.isin(k, key[(d < -band) & (d >= -reach)])
+        if np.mean(towards & ~away) < 0.8:
+            return False
+    return True
+
+
+def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: Optional[np.ndarray], params: ManhattanParams,
                  spacing: float, weak: list | None = None) -> list:
     """``strong`` (histogram peaks of one axis) with the second faces of their walls.
 
@@ -180,11 +207,13 @@ def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: np.ndarray, 
 
     ``t`` (n,) the points' coordinate along the axis, ``uv`` (n, 2) the other horizontal one
     and z, ``sign`` (n,) their oriented normals' component along the axis (normals facing the
-    scanner); ``weak``: the peaks of the same points at ``min_paired_wall_area`` when the
+    scanner), or None without scanner positions (:func:`_back_to_back` then tells the sides);
+    ``weak``: the peaks of the same points at ``min_paired_wall_area`` when the
     caller has them already."""
     if not strong or params.min_paired_wall_area >= params.min_wall_area:
         return strong
     bs = params.bin_size
+    reach = params.max_wall_thickness + 2.0 * bs
     have = np.array([pk.position for pk in strong])
     along = uv[:, 0]
     stats = {}
@@ -211,7 +240,11 @@ def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: np.ndarray, 
                     np.any((rel > abs(gap) + 1e-9) & (rel <= abs(gap) + params.max_wall_thickness)):
                 continue
             # each seen from its own side, facing away from the other, along the same stretch
-            if fp * gap < 0 and fw * gap > 0 and len(span & strong_span) >= 0.5 * len(span):
+            if sign is None:
+                apart = _back_to_back(t, along, uv[:, 1], pk.position, w.position, bs, reach)
+            else:
+                apart = fp * gap < 0 and fw * gap > 0
+            if apart and len(span & strong_span) >= 0.5 * len(span):
                 added.append(w)
                 log.debug("second face at %.3f (%.2f m²) behind the wall face at %.3f", w.position, w.area,
                           pk.position)

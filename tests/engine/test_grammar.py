@@ -593,6 +593,34 @@ def test_a_walls_second_face_seen_little_still_makes_a_cut():
     assert [round(p.position, 2) for p in paired_faces(strong3, t3, uv3, sign3, params, 0.02)] == [0.0, 0.45, 2.0]
 
 
+def test_without_scanner_positions_a_walls_second_face_is_told_by_its_open_side():
+    """paired_faces without oriented normals (no scanner positions; three_storey_house mobile
+    at 300k points lost a door with the partition it was in): a weak surface is the far face
+    of a wall when, where both are seen, each has the other within reach behind it and
+    nothing before it. A cabinet's front 0.3 m before a partition seen from both sides is not:
+    behind the partition's near face lies its far face too."""
+    from engine.grammar.place import histogram_peaks, paired_faces
+
+    rng = np.random.default_rng(1)
+    params = ManhattanParams(bin_size=0.03, shape_buffer=0.03, spacing=0.02, noise=0.005)
+
+    def faces(parts):
+        ts, uvs = zip(*(_face(y, x0, x1, z0, z1, 0.02, rng) for y, (x0, x1), (z0, z1) in parts))
+        t, uv = np.concatenate(ts), np.vstack(uvs)
+        strong = histogram_peaks(t, uv, params, 0.02, params.min_wall_area)
+        return ([round(p.position, 2) for p in strong],
+                [round(p.position, 2) for p in paired_faces(strong, t, uv, None, params, 0.02)])
+
+    # a partition's face (7.2 m²), its far face seen over 0.8 m², another wall 2 m away
+    strong, kept = faces([(0.0, (0.0, 3.0), (0.0, 2.4)), (0.15, (1.0, 2.0), (1.2, 2.0)),
+                          (2.0, (0.0, 3.0), (0.0, 2.4))])
+    assert strong == [0.0, 2.0] and kept == [0.0, 0.15, 2.0]
+    # a partition seen from both sides (two strong faces) and a cabinet's front before it
+    strong, kept = faces([(0.0, (0.0, 3.0), (0.0, 2.4)), (0.15, (0.0, 3.0), (0.0, 2.4)),
+                          (-0.3, (0.5, 2.0), (0.0, 0.9))])
+    assert strong == [0.0, 0.15] and kept == strong
+
+
 def test_a_storey_without_a_ceiling_level_keeps_the_preprocessings_top():
     """FZK-Haus's attic at 1M points: its ridge's flat strip, seen at a grazing angle, holds
     1.5 m² in σ-cells (2.7 m² at 300k), under ``min_level_area`` (2 m²): the storey had one
