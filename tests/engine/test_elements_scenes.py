@@ -421,3 +421,27 @@ def test_a_partition_seen_little_from_one_side_keeps_its_door_without_positions(
     d = r["doors"]
     assert d["found"] == d["matched"] == d["true"] == 9, d
     assert r["connectivity"]["equal"], r["connectivity"]
+
+
+@pytest.mark.slow
+def test_a_site_wall_seen_through_the_windows_stays_outside_the_attic(results):
+    """FZK-Haus, mobile, 1M points, seed 4, without scanner positions: the top of a site wall
+    10 m beyond the roof's eaves, at the ridge's height, was read as the attic's ceiling
+    running on beyond its seen extent (far scan lines), and the attic took the 10 m between
+    them: 238 m² for 110, IoU 0.45, the roof slab over it (ceilings 1 of 2 storeys). The
+    ceiling's points are followed only while their steps grow gradually: the attic stops at
+    the eaves."""
+    key = ("fzk_haus", "mobile", 4, "1M, no positions")
+    if key not in results:
+        from engine.synthetic.ifcscene import ifc_scene
+
+        sc = ifc_scene("fzk_haus", seed=4, noise="mobile", target_points=1_000_000)
+        m = reconstruct(sc.cloud.with_(scan_index=None, scanner_positions=None), "auto", rng=0)
+        results[key] = (sc, m, evaluate_elements(m, sc.truth))
+    sc, m, r = results[key]
+    attic = [s for s in m.spaces if s.storey == 1]
+    assert len(attic) == 1
+    lo, hi = attic[0].bounds
+    assert lo[1] >= -0.1 and hi[1] <= 10.1, (lo, hi)  # the house spans y 0 to 10 m
+    s = r["slabs"]
+    assert s["floor_found"] == s["ceiling_found"] == s["storeys"] == 2, s

@@ -781,3 +781,18 @@ def test_a_strip_behind_furniture_between_a_room_and_a_wall_is_the_rooms(case, e
     if expect:  # their faces across the run are furniture: one space with the room
         assert [shapes[(0, j, 0)].attributes["joined_faces"] for j in (1, 2, 3)] == [(2, 4), (2, 4), (2,)]
         assert "behind furniture" in shapes[(0, 3, 0)].log[-1]
+
+
+def test_a_ceilings_far_scan_lines_are_followed_until_a_jump():
+    """Beyond a ceiling's seen extent its points are followed while the steps between them
+    grow gradually (scan lines part with range: 0.23 m then 0.56 m on office_mw seen from one
+    position); a jump of more than three times the largest step before it (and more than a
+    wall's thickness) leaves the ceiling — the top of a site wall 10 m beyond the eaves."""
+    from engine.grammar.manhattan import _scan_lines
+
+    lines = np.r_[np.linspace(0.0, 0.05, 20), np.linspace(0.23, 0.27, 20), np.linspace(0.79, 0.89, 20)]
+    assert _scan_lines(lines, 0.5) == pytest.approx(0.89)
+    assert _scan_lines(np.r_[lines, 10.8, 10.9], 0.5) == pytest.approx(0.89)
+    assert _scan_lines(np.array([10.8, 10.85]), 0.5) == 0.0  # nothing near the edge
+    assert _scan_lines(np.array([0.1, 0.2, 0.3]), 0.5) == pytest.approx(0.3)
+    assert _scan_lines(np.array([]), 0.5) == 0.0
