@@ -98,26 +98,27 @@ def _rectangle(mask: np.ndarray, share: float, bridge: int) -> tuple[int, int, i
     return c0, c1, r0, r1
 
 
-def _bar(mask: np.ndarray, a, b, axis: int, share: float = 0.9) -> bool:
-    """Whether a solid bar separates rectangles ``a`` and ``b`` [c0, c1, r0, r1] of the empty
-    ``mask``: a row (``axis`` 1: one above the other) or column (0: side by side) between
-    them, solid over ``share`` of their common extent — a transom or mullion between two
-    windows, where noise leaves scattered points only."""
+def _bar(solid: np.ndarray, a, b, axis: int, share: float = 0.9) -> bool:
+    """Whether a solid bar separates rectangles ``a`` and ``b`` [c0, c1, r0, r1]: a row
+    (``axis`` 1: one above the other) or column (0: side by side) between them with points
+    (``solid``, the raster's cells holding face points) over ``share`` of their common
+    extent — a transom or mullion between two windows. Noise leaves scattered points only,
+    and a sparse face too (the face's kernel fills its cells, not its points: no bar)."""
     if axis == 1:
         lo, hi = min(a[3], b[3]), max(a[2], b[2])
         x0, x1 = max(a[0], b[0]), min(a[1], b[1])
-        band = mask[x0:x1, lo:hi]
-        return hi > lo and x1 > x0 and bool((np.mean(~band, axis=0) >= share).any())
+        band = solid[x0:x1, lo:hi]
+        return hi > lo and x1 > x0 and bool((np.mean(band, axis=0) >= share).any())
     lo, hi = min(a[1], b[1]), max(a[0], b[0])
     y0, y1 = max(a[2], b[2]), min(a[3], b[3])
-    band = mask[lo:hi, y0:y1]
-    return hi > lo and y1 > y0 and bool((np.mean(~band, axis=1) >= share).any())
+    band = solid[lo:hi, y0:y1]
+    return hi > lo and y1 > y0 and bool((np.mean(band, axis=1) >= share).any())
 
 
-def _merge(rects: list, gap: int, mask: Optional[np.ndarray] = None) -> list:
+def _merge(rects: list, gap: int, solid: Optional[np.ndarray] = None) -> list:
     """Merge rectangles [c0, c1, r0, r1] closer than ``gap`` cells along one axis that overlap
-    along the other by half the larger one's extent, unless a solid bar of ``mask`` lies
-    between them (:func:`_bar`)."""
+    along the other by half the larger one's extent, unless a bar of ``solid`` (cells with
+    face points) lies between them (:func:`_bar`)."""
     rects = [list(r) for r in rects]
     i = 0
     while i < len(rects):
@@ -128,8 +129,8 @@ def _merge(rects: list, gap: int, mask: Optional[np.ndarray] = None) -> list:
             oz = -dz / max(1, a[3] - a[2], b[3] - b[2])
             side = du <= gap and oz >= 0.5
             stacked = dz <= gap and ou >= 0.5
-            if mask is not None and ((side and du > 0 and _bar(mask, a, b, 0))
-                                     or (stacked and dz > 0 and _bar(mask, a, b, 1))):
+            if solid is not None and ((side and du > 0 and _bar(solid, a, b, 0))
+                                      or (stacked and dz > 0 and _bar(solid, a, b, 1))):
                 continue
             if side or stacked:
                 rects[i] = [min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])]
@@ -140,8 +141,9 @@ def _merge(rects: list, gap: int, mask: Optional[np.ndarray] = None) -> list:
     return [tuple(r) for r in rects]
 
 
-def gap_rectangles(mask: np.ndarray, p: OpeningParams) -> list:
-    """Rectangles [c0, c1, r0, r1] (cells) of the empty components of ``mask``.
+def gap_rectangles(mask: np.ndarray, p: OpeningParams, solid: Optional[np.ndarray] = None) -> list:
+    """Rectangles [c0, c1, r0, r1] (cells) of the empty components of ``mask``; two close
+    ones with a bar of ``solid`` (cells with face points) between them stay two.
 
     A component may hold several openings joined by thin empty channels (a sparse band
     under the ceiling links two windows and a door between them on a mobile scan): its
@@ -171,7 +173,7 @@ def gap_rectangles(mask: np.ndarray, p: OpeningParams) -> list:
             rest[max(0, c0 - bridge - 1):c1 + bridge + 1] = False
             if rest.sum() >= 4:
                 todo.append((rest, x0, y0))
-    return _merge(rects, bridge, mask)
+    return _merge(rects, bridge, solid)
 
 
 def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 0.0) -> Optional[float]:
