@@ -445,3 +445,23 @@ def test_a_site_wall_seen_through_the_windows_stays_outside_the_attic(results):
     assert lo[1] >= -0.1 and hi[1] <= 10.1, (lo, hi)  # the house spans y 0 to 10 m
     s = r["slabs"]
     assert s["floor_found"] == s["ceiling_found"] == s["storeys"] == 2, s
+
+
+@pytest.mark.slow
+def test_a_strip_along_a_cabinet_touching_another_room_at_a_corner_joins_its_room(results):
+    """syn_house, mobile, 1M points, seed 3 (the generic method): a covered strip along a
+    cabinet's front in the common room touched the private room beside it over 3 cm at a
+    corner; as a cell between two spaces it joined neither, the room stopped at the cabinet
+    and the cabinet's front became a wall with a "window" over it (10 found for 9). Faces
+    shorter than ``link_length`` in all are no adjacency: the strip joins its room, 9 of 9
+    windows, mean room IoU 0.99. The search's seed 3 (as the benchmark rows): with seed 0 the
+    chain happened to take the strip in before too (seeds 1-3 did not)."""
+    key = ("syn_house", "mobile", 3, "1M, search seed 3")
+    if key not in results:
+        sc = preset("syn_house", seed=3, noise="mobile", target_points=1_000_000)
+        m = reconstruct(sc.cloud, "auto", rng=3)
+        results[key] = (sc, m, evaluate_elements(m, sc.truth))
+    sc, m, r = results[key]
+    w, s = r["windows"], r["spaces"]
+    assert w["found"] == w["matched"] == w["true"] == 9, w
+    assert s["model"] == s["truth"] == s["matched"] == 5 and s["mean_iou"] >= 0.985, s  # measured 0.99
