@@ -184,8 +184,8 @@ def _back_to_back(t: np.ndarray, along: np.ndarray, z: np.ndarray, a: float, b: 
     return True
 
 
-def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: Optional[np.ndarray], params: ManhattanParams,
-                 spacing: float, weak: list | None = None) -> list:
+def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: Optional[np.ndarray],
+                 params: ManhattanParams, spacing: float, weak: list | None = None) -> list:
     """``strong`` (histogram peaks of one axis) with the second faces of their walls.
 
     A partition's second face is often seen over little of its area (furniture in front of

@@ -43,7 +43,8 @@ def test_clutter_lined_up_is_no_plane():
     rng = np.random.default_rng(1)
     parts = []
     for y in (0.2, 1.1, 2.0, 2.9, 3.8):
-        parts.append(np.c_[rng.normal(0, 0.004, 40), y + rng.uniform(0, 0.2, 40), 0.5 + rng.uniform(0, 0.2, 40)])
+        parts.append(np.c_[rng.normal(0, 0.004, 40), y + rng.uniform(0, 0.2, 40),
+                           0.5 + rng.uniform(0, 0.2, 40)])
     p = np.concatenate(parts)
     p = np.r_[p, p[:, [0, 1, 2]] + [0.0, 0.0, 1.3]]  # and a second row higher up: 400 points
     assert _planes(p, np.tile([1.0, 0.0, 0.0], (len(p), 1))) == []
