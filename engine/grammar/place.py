@@ -240,8 +240,10 @@ def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: Optional[np.
                     np.any((rel > abs(gap) + 1e-9) & (rel <= abs(gap) + params.max_wall_thickness)):
                 continue
             # each seen from its own side, facing away from the other, along the same stretch
-            if sign is None:
-                apart = _back_to_back(t, along, uv[:, 1], pk.position, w.position, bs, reach)
+            if sign is None:  # and the strong face has no other face already (within a wall's
+                # thickness on its far side: its other face seen sparsely looks open)
+                partnered = np.any((rel <= -params.min_interval) & (rel >= -params.max_wall_thickness))
+                apart = not partnered and _back_to_back(t, along, uv[:, 1], pk.position, w.position, bs, reach)
             else:
                 apart = fp * gap < 0 and fw * gap > 0
             if apart and len(span & strong_span) >= 0.5 * len(span):
