@@ -432,11 +432,8 @@ class SpaceSearch:
                 return False
         return True
 
-    def _touching(self, c: int) -> set:
-        """The spaces cell ``c`` shares faces with, leaving out those it touches over less than
-        ``link_length`` in all (a corner's few centimetres: syn_house mobile at 1M points, a
-        covered strip along a cabinet's front touched a second room over 3 cm and joined
-        neither), unless it touches none longer."""
+    def _contact(self, c: int) -> dict:
+        """Space id -> the length of the faces cell ``c`` shares with that space's cells, metres."""
         length: dict = {}
         for fi in self.cfaces[c]:
             a, b = self.face_ab[fi]
@@ -444,6 +441,14 @@ class SpaceSearch:
             if other >= 0 and self.space_of[other] >= 0:
                 sid = int(self.space_of[other])
                 length[sid] = length.get(sid, 0.0) + self.cells.faces[fi].length
+        return length
+
+    def _touching(self, c: int) -> set:
+        """The spaces cell ``c`` shares faces with, leaving out those it touches over less than
+        ``link_length`` in all (a corner's few centimetres: syn_house mobile at 1M points, a
+        covered strip along a cabinet's front touched a second room over 3 cm and joined
+        neither), unless it touches none longer."""
+        length = self._contact(c)
         long = {sid for sid, v in length.items() if v >= self.params.link_length}
         return long or set(length)
 
@@ -455,14 +460,7 @@ class SpaceSearch:
         ceiling's edges spilling over it, joined the two rooms beside it)."""
         if self.cells.wall_thickness(c, self.cfaces[c], self.space_of >= 0) > self.params.max_wall_thickness:
             return False
-        length: dict = {}
-        for fi in self.cfaces[c]:
-            a, b = self.face_ab[fi]
-            other = b if a == c else a
-            if other >= 0 and self.space_of[other] >= 0:
-                sid = int(self.space_of[other])
-                length[sid] = length.get(sid, 0.0) + self.cells.faces[fi].length
-        return min(length.values(), default=0.0) < self.params.join_open_width
+        return min(self._contact(c).values(), default=0.0) < self.params.join_open_width
 
     def _open_to(self, c: int) -> set:
         """The one space a covered untyped cell ``c`` opens to when every face it shares with
