@@ -117,8 +117,10 @@ def _bar(solid: np.ndarray, a, b, axis: int, share: float = 0.9) -> bool:
 
 def _merge(rects: list, gap: int, solid: Optional[np.ndarray] = None) -> list:
     """Merge rectangles [c0, c1, r0, r1] closer than ``gap`` cells along one axis that overlap
-    along the other by half the larger one's extent, unless a bar of ``solid`` (cells with
-    face points) lies between them (:func:`_bar`)."""
+    along the other by half the larger one's extent, unless one lies above the other with a
+    transom between them (a row of ``solid``, cells with face points: :func:`_bar`). Side by
+    side they merge across a mullion: a wide window's mullions are inside one window (the
+    Duplex's 2.8 m glazing, one IfcWindow, was two), stacked windows are often separate."""
     rects = [list(r) for r in rects]
     i = 0
     while i < len(rects):
@@ -129,8 +131,7 @@ def _merge(rects: list, gap: int, solid: Optional[np.ndarray] = None) -> list:
             oz = -dz / max(1, a[3] - a[2], b[3] - b[2])
             side = du <= gap and oz >= 0.5
             stacked = dz <= gap and ou >= 0.5
-            if solid is not None and ((side and du > 0 and _bar(solid, a, b, 0))
-                                      or (stacked and dz > 0 and _bar(solid, a, b, 1))):
+            if solid is not None and stacked and not side and dz > 0 and _bar(solid, a, b, 1):
                 continue
             if side or stacked:
                 rects[i] = [min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])]
