@@ -98,27 +98,20 @@ def _rectangle(mask: np.ndarray, share: float, bridge: int) -> tuple[int, int, i
     return c0, c1, r0, r1
 
 
-def _bar(solid: np.ndarray, a, b, axis: int, share: float = 0.9) -> bool:
-    """Whether a solid bar separates rectangles ``a`` and ``b`` [c0, c1, r0, r1]: a row
-    (``axis`` 1: one above the other) or column (0: side by side) between them with points
-    (``solid``, the raster's cells holding face points) over ``share`` of their common
-    extent — a transom or mullion between two windows. Noise leaves scattered points only,
-    and a sparse face too (the face's kernel fills its cells, not its points: no bar)."""
-    if axis == 1:
-        lo, hi = min(a[3], b[3]), max(a[2], b[2])
-        x0, x1 = max(a[0], b[0]), min(a[1], b[1])
-        band = solid[x0:x1, lo:hi]
-        return hi > lo and x1 > x0 and bool((np.mean(band, axis=0) >= share).any())
-    lo, hi = min(a[1], b[1]), max(a[0], b[0])
-    y0, y1 = max(a[2], b[2]), min(a[3], b[3])
-    band = solid[lo:hi, y0:y1]
-    return hi > lo and y1 > y0 and bool((np.mean(band, axis=1) >= share).any())
+def _transom(solid: np.ndarray, a, b, share: float = 0.9) -> bool:
+    """Whether a transom separates rectangles ``a`` and ``b`` [c0, c1, r0, r1], one above the
+    other: a row between them with points (``solid``, the raster's cells holding face points)
+    over ``share`` of their common columns. Noise leaves scattered points only, and a sparse
+    face too (the face's kernel fills its cells, not its points: no transom)."""
+    lo, hi = min(a[3], b[3]), max(a[2], b[2])
+    x0, x1 = max(a[0], b[0]), min(a[1], b[1])
+    return hi > lo and x1 > x0 and bool((np.mean(solid[x0:x1, lo:hi], axis=0) >= share).any())
 
 
 def _merge(rects: list, gap: int, solid: Optional[np.ndarray] = None) -> list:
     """Merge rectangles [c0, c1, r0, r1] closer than ``gap`` cells along one axis that overlap
     along the other by half the larger one's extent, unless one lies above the other with a
-    transom between them (a row of ``solid``, cells with face points: :func:`_bar`). Side by
+    transom between them (a row of ``solid``, cells with face points: :func:`_transom`). Side by
     side they merge across a mullion: a wide window's mullions are inside one window (the
     Duplex's 2.8 m glazing, one IfcWindow, was two), stacked windows are often separate."""
     rects = [list(r) for r in rects]
@@ -131,7 +124,7 @@ def _merge(rects: list, gap: int, solid: Optional[np.ndarray] = None) -> list:
             oz = -dz / max(1, a[3] - a[2], b[3] - b[2])
             side = du <= gap and oz >= 0.5
             stacked = dz <= gap and ou >= 0.5
-            if solid is not None and stacked and not side and dz > 0 and _bar(solid, a, b, 1):
+            if solid is not None and stacked and not side and dz > 0 and _transom(solid, a, b):
                 continue
             if side or stacked:
                 rects[i] = [min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])]
@@ -144,7 +137,7 @@ def _merge(rects: list, gap: int, solid: Optional[np.ndarray] = None) -> list:
 
 def gap_rectangles(mask: np.ndarray, p: OpeningParams, solid: Optional[np.ndarray] = None) -> list:
     """Rectangles [c0, c1, r0, r1] (cells) of the empty components of ``mask``; two close
-    ones with a bar of ``solid`` (cells with face points) between them stay two.
+    ones with a transom of ``solid`` (cells with face points) between them stay two.
 
     A component may hold several openings joined by thin empty channels (a sparse band
     under the ceiling links two windows and a door between them on a mobile scan): its

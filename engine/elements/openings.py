@@ -385,7 +385,7 @@ def _gap_rects(dd: _Data, p: OpeningParams, external: bool = False, hidden=None)
     cols = [dd.face[s][:, r_lo:r_hi].sum(axis=1) + dd.through[s][:, r_lo:r_hi].sum(axis=1) for s in (0, 1)]
     obs = observed_columns(cols, run, int(round(p.density_window / c)) | 1, ends=external)
     empty = [~face_present(dd.face[s][:, r_lo:r_hi], p) for s in (0, 1)]
-    solid = (dd.face[0][:, r_lo:r_hi] > 0) | (dd.face[1][:, r_lo:r_hi] > 0)  # a transom's, a mullion's points
+    solid = (dd.face[0][:, r_lo:r_hi] > 0) | (dd.face[1][:, r_lo:r_hi] > 0)  # a transom's points
     o0, o1 = obs
     free = np.ones(len(o0), bool) if hidden is None else ~(hidden[0] | hidden[1])
     both = (empty[0] | ~o0[:, None]) & (empty[1] | ~o1[:, None]) & (o0 | o1)[:, None] & free[:, None]

@@ -189,7 +189,9 @@ def _scan_lines(r: np.ndarray, gap: float) -> float:
     g = np.diff(np.r_[0.0, r])
     allowed = np.maximum(gap, 3.0 * np.maximum.accumulate(np.r_[0.0, g[:-1]]))
     bad = np.nonzero(g > allowed)[0]
-    return float(r[bad[0] - 1]) if len(bad) and bad[0] > 0 else (0.0 if len(bad) else float(r[-1]))
+    if len(bad) == 0:
+        return float(r[-1])
+    return float(r[bad[0] - 1]) if bad[0] > 0 else 0.0
 
 
 def _closing_wall(edge: float, side: int, weak, reach: float) -> float:
