@@ -469,7 +469,8 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
     if not parts:
         return model
     by_grid = {(p.storey, p.grid): p for p in parts.values() if p.grid is not None}
-    narrow = {sp.id for sp in model.spaces if sp.attributes.get("merged") and _width(sp) < min_width}
+    widths = {sp.id: _width(sp) for sp in model.spaces if sp.attributes.get("merged")}
+    narrow = {sid for sid, w in widths.items() if w < min_width}
     new = []
     for sp in model.spaces:
         if not sp.attributes.get("merged"):
@@ -479,7 +480,7 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
             continue
         size = sp.scope.size
         area, _ = sp.geometry.plan_area_perimeter()
-        width = _width(sp)
+        width = widths[sp.id]
         height = float(sp.attributes.get("height", size[2]))
         if width < min_width:
             join = _strip_join(members, by_grid, tau if tau is not None else DEFAULT_TAU, min_floor_evidence,

@@ -43,9 +43,9 @@ from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import InputError, ReconstructionError
+from ..geometry.kdtree import kdtree
 from ..model import Storey
 from ..pointcloud import PointCloud
 from ..progress import Progress
@@ -290,7 +290,7 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng, band=None):
 
     def spacing(sup):  # median distance to the nearest other point of the tile
         if not tree:
-            tree.append(cKDTree(pts))
+            tree.append(kdtree(pts))
         return float(np.median(tree[0].query(sup, k=2)[0][:, 1]))
 
     while len(pool) >= params.min_points and len(out) < params.max_planes_per_tile:
