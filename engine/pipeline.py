@@ -31,8 +31,8 @@ from .segmentation.planes import extract_planes
 from .segmentation.storeys import detect_storeys
 from .threads import thread_cap
 
-__all__ = ["ChoiceParams", "Prepared", "preprocess", "align", "cap_points", "full_cloud_normals",
-           "plausible_scanners", "manhattan_score", "choose_method", "normal_tilt_spread"]
+__all__ = ["ChoiceParams", "Prepared", "Cleaned", "cleaned_clouds", "preprocess", "align", "cap_points",
+           "full_cloud_normals", "plausible_scanners", "manhattan_score", "choose_method", "normal_tilt_spread"]
 
 log = logging.getLogger(__name__)
 
@@ -152,32 +152,25 @@ def _storeys_of(cloud: PointCloud, labels: np.ndarray, params: PreprocessParams)
         return [Storey(0, float(lo), float(hi), "Storey 0", float(lo))], False
 
 
-def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(), *, rng=0,
-               planes: bool = True, full_normals: bool = False, progress=None, should_stop=None) -> Prepared:
-    """Working cloud, normals, point clusters, storeys and (``planes``) RANSAC planes.
+@dataclass(frozen=True, eq=False)
+class Cleaned:
+    """The first step of :func:`preprocess`, which a second call on the same scan can reuse:
+    ``full`` (finite, stray clusters removed, plausible scanner positions), ``work`` (the
+    working cloud), ``index`` (each working point's index in ``full``), ``voxel``, the
+    ``cleaning`` counts and the ``timings``."""
 
-    Parameters
-    ----------
-    cloud : PointCloud — metres, z up (see :func:`engine.segmentation.frame.normalize_frame`).
-    params : PreprocessParams
-    rng : seed or numpy Generator — RANSAC draws from it (a Generator is advanced).
-    planes : bool — extract planes (the generic method and ``auto`` need them).
-    full_normals : bool — estimate the normals of every point first
-        (:func:`full_cloud_normals`, what the Manhattan grammar reads); the working cloud then
-        takes its points' normals.
+    full: PointCloud
+    work: PointCloud
+    index: np.ndarray
+    voxel: float
+    cleaning: dict
+    timings: dict
 
-    Raises
-    ------
-    EmptyCloudError
-        Fewer usable points than ``params.clean.min_points``.
-    ReconstructionError
-        No storey and too few floor/ceiling points, or no plane at all.
-    """
-    rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
-    p = Progress.wrap(progress, should_stop)
+
+def cleaned_clouds(cloud: PointCloud, params: PreprocessParams = PreprocessParams()) -> Cleaned:
+    """The building's points and the working cloud of ``cloud`` (:class:`Cleaned`)."""
     t = {}
     t0 = time.perf_counter()
-    p(0.0, "working cloud")
     full = drop_nonfinite(cloud)
     keep, groups = building_points(full.xyz, params.clean.cluster_voxel, params.clean.min_cluster_share)
     cleaning = {"points": len(cloud), "nonfinite_removed": len(cloud) - len(full),
@@ -192,6 +185,40 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
     t1 = time.perf_counter()
     work, index, voxel = clean(full, params.clean)
     t["working_cloud"] = time.perf_counter() - t1
+    return Cleaned(full, work, index, voxel, cleaning, t)
+
+
+def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(), *, rng=0,
+               planes: bool = True, full_normals: bool = False, progress=None, should_stop=None,
+               cleaned: Optional[Cleaned] = None, plane_kinds=("wall", "horizontal")) -> Prepared:
+    """Working cloud, normals, point clusters, storeys and (``planes``) RANSAC planes.
+
+    Parameters
+    ----------
+    cloud : PointCloud — metres, z up (see :func:`engine.segmentation.frame.normalize_frame`).
+    params : PreprocessParams
+    rng : seed or numpy Generator — RANSAC draws from it (a Generator is advanced).
+    planes : bool — extract planes (the generic method and ``auto`` need them).
+    full_normals : bool — estimate the normals of every point first
+        (:func:`full_cloud_normals`, what the Manhattan grammar reads); the working cloud then
+        takes its points' normals.
+    cleaned : :func:`cleaned_clouds` of ``cloud`` with ``params``, from an earlier call, or
+        None (computed).
+    plane_kinds : the planes to find (:func:`engine.segmentation.planes.extract_planes`'s
+        ``kinds``; the method choice reads the walls alone).
+
+    Raises
+    ------
+    EmptyCloudError
+        Fewer usable points than ``params.clean.min_points``.
+    ReconstructionError
+        No storey and too few floor/ceiling points, or no plane at all.
+    """
+    rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    p = Progress.wrap(progress, should_stop)
+    p(0.0, "working cloud")
+    c = cleaned_clouds(cloud, params) if cleaned is None else cleaned
+    full, work, index, voxel, cleaning, t = c.full, c.work, c.index, c.voxel, c.cleaning, dict(c.timings)
     p.check()
     spacing = tree = None  # only the Manhattan grammar reads them
     if full_normals:  # the working cloud then shares them
@@ -225,7 +252,7 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
         t1 = time.perf_counter()
         p(0.2, "planes")
         found_planes = extract_planes(work, params.planes, labels=labels, storeys=storeys, rng=rng,
-                                      progress=p.sub(0.2, 1.0), should_stop=should_stop)
+                                      progress=p.sub(0.2, 1.0), should_stop=should_stop, kinds=plane_kinds)
         for pl in found_planes:
             plane_of[pl.support] = pl.id
         t["planes"] = time.perf_counter() - t1

@@ -10,11 +10,12 @@ job for one scan with atomic outputs.
 from __future__ import annotations
 
 import contextlib
+import copy
 import json
 import logging
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional
 
 import numpy as np
@@ -30,7 +31,7 @@ from .io import read_point_cloud
 from .jobs import check_output_dir
 from .model import BuildingModel
 from .params import Params
-from .pipeline import cap_points, choose_method, plausible_scanners, preprocess
+from .pipeline import cap_points, choose_method, cleaned_clouds, plausible_scanners, preprocess
 from .segmentation.cleaning import drop_nonfinite
 from .pointcloud import PointCloud
 from .progress import Progress
@@ -82,16 +83,28 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
     t0 = time.perf_counter()
     cloud, capped = cap_points(cloud, params.preprocess.clean)  # a 10M-point scan costs what 2M cost
     t_cap = time.perf_counter() - t0
-    prep = preprocess(cloud, params.preprocess, rng=gen, planes=method != "manhattan",
-                      full_normals=method == "manhattan", progress=p.sub(0.0, 0.4))
-    if prep.cleaning.get("scanner_positions_dropped"):  # the elements read the input cloud's too
-        cloud, _ = plausible_scanners(cloud, params.preprocess.clean.scanner_margin,
-                                      (prep.cloud.xyz.min(axis=0), prep.cloud.xyz.max(axis=0)))
+    pp = params.preprocess
+    cleaned = cleaned_clouds(cloud, pp)
+    # auto chooses from the wall planes on the Manhattan grammar's normals (the full cloud's,
+    # which the working cloud shares) drawn from a copy of the Generator: choosing Manhattan
+    # then costs no normals of its own and gives what --method manhattan gives; the generic
+    # method finds its normals and planes anew, as --method generic does
+    prep = preprocess(cloud, pp, rng=copy.deepcopy(gen) if method == "auto" else gen,
+                      planes=method != "manhattan", full_normals=method != "generic",
+                      progress=p.sub(0.0, 0.4), cleaned=cleaned,
+                      plane_kinds=("wall",) if method == "auto" else ("wall", "horizontal"))
     choice = {}
     if method == "auto":
         method, score = choose_method(prep, params.choice)
         p(0.4, f"method: {method}")
         choice = {"method_choice": "auto", "manhattan_score": round(score, 4)}
+        if method == "generic":
+            spent = sum(v for k, v in prep.timings.items() if k not in cleaned.timings)
+            prep = preprocess(cloud, pp, rng=gen, progress=p.sub(0.0, 0.4), cleaned=cleaned)
+            prep = replace(prep, timings={**prep.timings, "method_choice": spent})
+    if prep.cleaning.get("scanner_positions_dropped"):  # the elements read the input cloud's too
+        cloud, _ = plausible_scanners(cloud, pp.clean.scanner_margin,
+                                      (prep.cloud.xyz.min(axis=0), prep.cloud.xyz.max(axis=0)))
     if method == "manhattan":
         model = manhattan_model(prep, params.manhattan, rng=gen, progress=p.sub(0.4, 1.0))
     else:

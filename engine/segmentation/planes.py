@@ -422,7 +422,8 @@ def _merge_round(planes_raw, xyz, nrm, params: PlaneParams, rng):
 
 def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
                    labels: Optional[np.ndarray] = None, storeys: Optional[Sequence[Storey]] = None,
-                   storey_margin: float = 0.3, rng=0, progress=None, should_stop=None) -> list[Plane]:
+                   storey_margin: float = 0.3, rng=0, progress=None, should_stop=None,
+                   kinds: Sequence[str] = ("wall", "horizontal")) -> list[Plane]:
     """Wall and floor/ceiling planes of an aligned cloud with normals (see module doc).
 
     Parameters
@@ -439,6 +440,7 @@ def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
         storey (index -1).
     rng : numpy Generator, int or None
     progress, should_stop : callables (see :class:`engine.progress.Progress`)
+    kinds : the kinds of plane to find: "wall", "horizontal" or both.
 
     Returns
     -------
@@ -470,6 +472,8 @@ def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
                                                         params)
         zin = (xyz[:, 2] >= z0) & (xyz[:, 2] <= z1)
         for kind, cls in (("wall", CLASS_WALL), ("horizontal", CLASS_HORIZONTAL)):
+            if kind not in kinds:
+                continue
             idx = np.nonzero(zin & (labels == cls))[0]
             if len(idx) == 0:
                 continue
