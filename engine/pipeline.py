@@ -25,11 +25,13 @@ from .progress import Progress
 from .quantities import Radians, Ratio
 from .segmentation.alignment import AlignmentResult, align_manhattan
 from .segmentation.classify import CLASS_HORIZONTAL, classify_points
-from .segmentation.cleaning import building_points, clean, drop_nonfinite, estimate_normals, voxel_downsample
+from .segmentation.cleaning import (building_points, clean_voxels, drop_nonfinite, estimate_normals,
+                                   voxel_downsample)
 from .segmentation.params import CleanParams, PreprocessParams
 from .segmentation.planes import extract_planes
 from .segmentation.storeys import detect_storeys
 from .threads import thread_cap
+from .geometry.boxes import column_max, column_min
 
 __all__ = ["ChoiceParams", "Prepared", "Cleaned", "cleaned_clouds", "preprocess", "align", "cap_points",
            "full_cloud_normals", "plausible_scanners", "manhattan_score", "choose_method", "normal_tilt_spread"]
@@ -157,7 +159,8 @@ class Cleaned:
     """The first step of :func:`preprocess`, which a second call on the same scan can reuse:
     ``full`` (finite, stray clusters removed, plausible scanner positions), ``work`` (the
     working cloud), ``index`` (each working point's index in ``full``), ``voxel``, the
-    ``cleaning`` counts and the ``timings``."""
+    ``cleaning`` counts, the ``timings`` and the ``voxels`` of ``full``
+    (:func:`engine.segmentation.cleaning.clean_voxels`)."""
 
     full: PointCloud
     work: PointCloud
@@ -165,6 +168,7 @@ class Cleaned:
     voxel: float
     cleaning: dict
     timings: dict
+    voxels: Optional[tuple] = None
 
 
 def cleaned_clouds(cloud: PointCloud, params: PreprocessParams = PreprocessParams()) -> Cleaned:
@@ -183,9 +187,9 @@ def cleaned_clouds(cloud: PointCloud, params: PreprocessParams = PreprocessParam
         cleaning["scanner_positions_dropped"] = dropped
     t["strays"] = time.perf_counter() - t0
     t1 = time.perf_counter()
-    work, index, voxel = clean(full, params.clean)
+    work, index, voxel, voxels = clean_voxels(full, params.clean)
     t["working_cloud"] = time.perf_counter() - t1
-    return Cleaned(full, work, index, voxel, cleaning, t)
+    return Cleaned(full, work, index, voxel, cleaning, t, voxels)
 
 
 def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(), *, rng=0,
@@ -228,7 +232,7 @@ def preprocess(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
         t["spacing"] = time.perf_counter() - t1
         t1 = time.perf_counter()
         p(0.0, "normals")
-        full = full_cloud_normals(full, params, spacing, tree=tree, voxel=voxel)
+        full = full_cloud_normals(full, params, spacing, tree=tree, voxel=voxel, voxels=c.voxels)
         work = work.with_(normals=full.normals[index])
         t["normals_full"] = time.perf_counter() - t1
     t1 = time.perf_counter()
@@ -308,7 +312,7 @@ def plausible_scanners(cloud: PointCloud, margin: float, box=None) -> tuple[Poin
     sp = cloud.scanner_positions
     if sp is None or len(sp) == 0 or len(cloud) == 0:
         return cloud, 0
-    lo, hi = (cloud.xyz.min(axis=0), cloud.xyz.max(axis=0)) if box is None else box
+    lo, hi = (column_min(cloud.xyz), column_max(cloud.xyz)) if box is None else box
     lo, hi = np.asarray(lo) - margin, np.asarray(hi) + margin
     ok = np.isfinite(sp).all(axis=1) & (sp >= lo).all(axis=1) & (sp <= hi).all(axis=1)
     bad = int((~ok & np.isfinite(sp).all(axis=1)).sum())
@@ -326,19 +330,21 @@ def plausible_scanners(cloud: PointCloud, margin: float, box=None) -> tuple[Poin
 
 
 def full_cloud_normals(cloud: PointCloud, params: PreprocessParams = PreprocessParams(),
-                       spacing: Optional[float] = None, tree=None, voxel: float = 0.0) -> PointCloud:
+                       spacing: Optional[float] = None, tree=None, voxel: float = 0.0,
+                       voxels=None) -> PointCloud:
     """``cloud`` with PCA normals of every point (the Manhattan grammar reads them), over at
     least ``normals.radius_spacings`` point spacings (far walls of a terrestrial scan are
     sparse); unchanged when it has normals. ``tree``: a k-d tree of ``cloud.xyz`` to share.
     ``voxel``: the working cloud's voxel (:func:`engine.segmentation.cleaning.clean`), whose
     points share one normal, estimated over their neighbourhood in the full cloud (0: one
-    per point)."""
+    per point); ``voxels``: that grid's voxels of ``cloud`` when known
+    (:class:`Cleaned`)."""
     if cloud.normals is not None:
         return cloud
     npar = params.normals
     spacing = estimate_spacing(cloud.xyz, tree=tree) if spacing is None else spacing
     return estimate_normals(cloud, replace(npar, radius=max(npar.radius, npar.radius_spacings * spacing)),
-                            tree=tree, share=voxel)
+                            tree=tree, share=voxel, voxels=voxels)
 
 
 def manhattan_score(planes, angle_tolerance: float = ChoiceParams.angle_tolerance) -> float:

@@ -36,6 +36,7 @@ from .segmentation.cleaning import drop_nonfinite
 from .pointcloud import PointCloud
 from .progress import Progress
 from .segmentation.frame import check_degenerate, normalize_frame
+from .geometry.boxes import column_max, column_min
 
 __all__ = ["METHODS", "reconstruct", "model_report", "convert_file", "ConvertResult"]
 
@@ -104,7 +105,7 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
             prep = replace(prep, timings={**prep.timings, "method_choice": spent})
     if prep.cleaning.get("scanner_positions_dropped"):  # the elements read the input cloud's too
         cloud, _ = plausible_scanners(cloud, pp.clean.scanner_margin,
-                                      (prep.cloud.xyz.min(axis=0), prep.cloud.xyz.max(axis=0)))
+                                      (column_min(prep.cloud.xyz), column_max(prep.cloud.xyz)))
     if method == "manhattan":
         model = manhattan_model(prep, params.manhattan, rng=gen, progress=p.sub(0.4, 1.0))
     else:

@@ -34,7 +34,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..errors import InputError
-from ..geometry.boxes import min_area_box
+from ..geometry.boxes import column_max, column_min, min_area_box
 from ..model import Polyhedron, Shape, ShapeType, Storey
 from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, leaf_columns, leaf_needed,
                    leaf_to_floor, near_points, observed_columns, on_solid)
@@ -111,9 +111,9 @@ def _bucket(xyz: np.ndarray, walls: list[_Wall], reach: float, cell: float) -> l
     one sort of the points by 2-D grid cell, then per wall the cells its widened footprint
     covers."""
     xy = xyz[:, :2]
-    lo = xy.min(axis=0)
+    lo = column_min(xy)
     ij = np.floor((xy - lo) / cell).astype(np.int64)
-    nx, ny = ij.max(axis=0) + 1
+    nx, ny = column_max(ij) + 1
     key = ij[:, 0] * ny + ij[:, 1]
     order = np.argsort(key, kind="stable")
     skey, h, out = key[order], cell * 0.7072, []

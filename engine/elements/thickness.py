@@ -17,6 +17,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from ..geometry.boxes import column_min
 from ..model import Shape, ShapeType
 
 __all__ = ["PointGrid", "reveal_depth"]
@@ -35,7 +36,7 @@ class PointGrid:
             self.ny = 1
             return
         ij = np.floor(self.xyz[:, :2] / self.cell).astype(np.int64)
-        self.lo = ij.min(axis=0)
+        self.lo = column_min(ij)
         ij -= self.lo
         self.ny = int(ij[:, 1].max()) + 1
         keys = ij[:, 0] * self.ny + ij[:, 1]

@@ -3,7 +3,20 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["min_area_box"]
+__all__ = ["min_area_box", "column_min", "column_max"]
+
+
+def column_min(a: np.ndarray) -> np.ndarray:
+    """``a.min(axis=0)`` of an (n, d) array, a column at a time: numpy reduces an (n, 3)
+    C-ordered array along its rows 3-4x slower than it reduces its strided columns."""
+    a = np.asarray(a)
+    return np.array([a[:, i].min() for i in range(a.shape[1])], dtype=a.dtype)
+
+
+def column_max(a: np.ndarray) -> np.ndarray:
+    """``a.max(axis=0)`` of an (n, d) array, a column at a time (see :func:`column_min`)."""
+    a = np.asarray(a)
+    return np.array([a[:, i].max() for i in range(a.shape[1])], dtype=a.dtype)
 
 
 def min_area_box(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .boxes import column_max, column_min
 __all__ = ["kdtree", "spatial_order"]
 
 
@@ -44,8 +45,8 @@ def spatial_order(points: np.ndarray, cell: float) -> np.ndarray:
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if len(p) == 0:
         return np.zeros(0, np.int64)
-    lo = p.min(axis=0)
-    cell = max(float(cell), float((p.max(axis=0) - lo).max()) / (2**21 - 1), 1e-9)
+    lo = column_min(p)
+    cell = max(float(cell), float((column_max(p) - lo).max()) / (2**21 - 1), 1e-9)
     q = np.floor((p - lo) / cell).astype(np.int64)
     key = _spread_bits(q[:, 0]) | (_spread_bits(q[:, 1]) << 1) | (_spread_bits(q[:, 2]) << 2)
     return np.argsort(key, kind="stable")

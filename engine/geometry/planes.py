@@ -22,4 +22,6 @@ def plane_frame(normal: np.ndarray, flat_cos: float = 0.9) -> tuple[np.ndarray, 
     if abs(n[2]) >= flat_cos or np.linalg.norm(u) < _NO_HORIZONTAL:
         u = np.array([1.0, 0.0, 0.0]) - n * n[0]
     u /= np.linalg.norm(u)
-    return u, np.cross(n, u)
+    # n × u written out: np.cross costs 20 µs a call on (3,) vectors, and the IFC writer and
+    # the evaluation frame thousands of faces
+    return u, np.array([n[1] * u[2] - n[2] * u[1], n[2] * u[0] - n[0] * u[2], n[0] * u[1] - n[1] * u[0]])

@@ -109,12 +109,12 @@ def triangulate_faces(vertices: np.ndarray, faces: Sequence[Sequence[int]]) -> n
 
 def polyhedron_volume(vertices: np.ndarray, faces: Sequence[Sequence[int]]) -> float:
     """Enclosed volume in m³ (divergence theorem; faces must be closed and outward)."""
-    vol = 0.0
-    for f in faces:
-        v = vertices[list(f)]
-        for j in range(1, len(v) - 1):
-            vol += float(np.dot(v[0], np.cross(v[j], v[j + 1])))
-    return abs(vol) / 6.0
+    vertices = np.asarray(vertices, dtype=np.float64)
+    fan = [(f[0], f[j], f[j + 1]) for f in faces for j in range(1, len(f) - 1)]  # one triangle a row
+    if not fan:
+        return 0.0
+    a, b, c = (vertices[list(col)] for col in zip(*fan))
+    return abs(float(np.einsum("ij,ij->", a, np.cross(b, c)))) / 6.0
 
 
 def prism_footprint(vertices: np.ndarray, faces: Sequence[Sequence[int]]) -> Optional[np.ndarray]:

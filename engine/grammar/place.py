@@ -20,6 +20,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..geometry.boxes import column_min
 from .params import ManhattanParams
 
 __all__ = ["Peak", "Level", "StoreyFrame", "histogram_peaks", "paired_faces", "detect_levels",
@@ -85,7 +86,7 @@ def _cell_keys(uv: np.ndarray, cell: float, group: np.ndarray) -> np.ndarray:
     """One int64 per (group, cell) pair: ``group * span + cell index`` (1D keys make
     ``np.unique`` fast). ``uv`` (n, 2) metres, ``group`` (n,) int ≥ 0."""
     c = np.floor(uv / cell).astype(np.int64)
-    c -= c.min(axis=0)
+    c -= column_min(c)
     w = int(c[:, 1].max()) + 1
     return group.astype(np.int64) * _key_span(uv, cell) + c[:, 0] * w + c[:, 1]
 

@@ -23,6 +23,7 @@ from typing import Optional
 import numpy as np
 
 from ..errors import ReconstructionError
+from ..geometry.boxes import column_max
 from ..geometry.normals import knn_pca
 from ..pointcloud import PointCloud, core_bounds
 
@@ -182,7 +183,7 @@ def sample_indices(cloud: PointCloud, params: FrameParams, rng, core: bool = Fal
             v = max(math.sqrt(area / m), float(ext.max()) / 1e5)
             for _ in range(6):
                 q = np.floor((np.clip(xyz, lo, hi) - lo) / v).astype(np.int64)
-                dims = q.max(axis=0) + 1
+                dims = column_max(q) + 1
                 key = (q[:, 0] * dims[1] + q[:, 1]) * dims[2] + q[:, 2]
                 _, first = np.unique(key, return_index=True)
                 if len(first) <= m:

@@ -7,6 +7,7 @@ averaged away); the original cloud is kept by the caller for evaluation.
 from __future__ import annotations
 
 import logging
+from typing import Optional
 
 import numpy as np
 
@@ -19,9 +20,10 @@ from ..pointcloud import PointCloud
 from ..progress import Progress
 from .params import CleanParams, NormalParams
 from ..threads import thread_cap
+from ..geometry.boxes import column_max, column_min
 
 __all__ = ["drop_nonfinite", "building_points", "voxel_downsample", "remove_statistical_outliers",
-           "estimate_normals", "clean"]
+           "estimate_normals", "clean", "clean_voxels"]
 
 log = logging.getLogger(__name__)
 
@@ -76,8 +78,8 @@ def voxel_downsample(cloud: PointCloud, voxel_size: float) -> tuple[PointCloud, 
 
 def _voxel_key(xyz: np.ndarray, voxel_size: float) -> np.ndarray:
     """(n,) int64 key of each point's voxel of edge ``voxel_size`` (grid from the minimum)."""
-    q = np.floor((xyz - xyz.min(axis=0)) / voxel_size).astype(np.int64)
-    dims = q.max(axis=0) + 1
+    q = np.floor((xyz - column_min(xyz)) / voxel_size).astype(np.int64)
+    dims = column_max(q) + 1
     return (q[:, 0] * dims[1] + q[:, 1]) * dims[2] + q[:, 2]
 
 
@@ -135,8 +137,8 @@ def building_points(xyz: np.ndarray, voxel: float, min_share: float) -> tuple[np
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    q = np.floor((xyz - xyz.min(axis=0)) / voxel).astype(np.int64) + 1  # a free layer on every side
-    dims = q.max(axis=0) + 2
+    q = np.floor((xyz - column_min(xyz)) / voxel).astype(np.int64) + 1  # a free layer on every side
+    dims = column_max(q) + 2
     key = (q[:, 0] * dims[1] + q[:, 1]) * dims[2] + q[:, 2]
     occupied, voxel_of, counts = np.unique(key, return_inverse=True, return_counts=True)
     rows, cols = [], []
@@ -172,6 +174,14 @@ def remove_statistical_outliers(cloud: PointCloud, neighbors: int, std_ratio: fl
 
 def clean(cloud: PointCloud, params: CleanParams = CleanParams(), *, progress=None,
           should_stop=None) -> tuple[PointCloud, np.ndarray, float]:
+    """Non-finite rows dropped, voxel downsampling, statistical outlier removal (see
+    :func:`clean_voxels`, which also gives every point's voxel)."""
+    work, kept, voxel, _ = clean_voxels(cloud, params, progress=progress, should_stop=should_stop)
+    return work, kept, voxel
+
+
+def clean_voxels(cloud: PointCloud, params: CleanParams = CleanParams(), *, progress=None,
+                 should_stop=None) -> tuple[PointCloud, np.ndarray, float, Optional[tuple]]:
     """Non-finite rows dropped, voxel downsampling, statistical outlier removal.
 
     Returns
@@ -183,6 +193,9 @@ def clean(cloud: PointCloud, params: CleanParams = CleanParams(), *, progress=No
     voxel : float
         The voxel edge actually used, metres (``params.voxel_size`` or larger, see
         ``CleanParams.max_working_points``; 0 when downsampling is off).
+    voxels : (representatives (k,) int64 sorted, voxel_of (n,) int64) of the finite input
+        on that grid before the outlier removal (:func:`estimate_normals`'s ``voxels``), or
+        None when downsampling is off.
 
     Raises
     ------
@@ -204,10 +217,11 @@ def clean(cloud: PointCloud, params: CleanParams = CleanParams(), *, progress=No
                 break
             voxel *= np.sqrt(count / params.max_working_points) * _VOXEL_GROWTH_MARGIN
             count = _voxel_count(finite.xyz, voxel)
-        kept, _ = _voxel_keys(finite.xyz, voxel, False)
+        voxels = _voxel_keys(finite.xyz, voxel, True)
+        kept = voxels[0]
         work = finite.subset(kept)
     else:
-        work, kept = finite, np.arange(len(finite), dtype=np.int64)
+        work, kept, voxels = finite, np.arange(len(finite), dtype=np.int64), None
     p(0.5, "outlier removal")
     if params.remove_outliers:
         work, keep = remove_statistical_outliers(work, params.outlier_neighbors, params.outlier_std_ratio)
@@ -218,7 +232,7 @@ def clean(cloud: PointCloud, params: CleanParams = CleanParams(), *, progress=No
             f"(at least {params.min_points} are needed)", cloud.source or None)
     p(1.0, f"{len(work)} working points")
     log.info("cleaned %s: %d -> %d working points (voxel %.3f m)", _name(cloud), len(cloud), len(work), voxel)
-    return work, kept, float(max(voxel, 0.0))
+    return work, kept, float(max(voxel, 0.0)), voxels
 
 
 def _o3d():
@@ -226,7 +240,7 @@ def _o3d():
 
 
 def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *, progress=None,
-                     should_stop=None, tree=None, share: float = 0.0) -> PointCloud:
+                     should_stop=None, tree=None, share: float = 0.0, voxels=None) -> PointCloud:
     """PCA normals over a hybrid radius / k-nearest neighbourhood (open3d), one-sided where
     scanner positions are known.
 
@@ -243,6 +257,8 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         (:func:`engine.geometry.normals.hybrid_covariances`). A dense scan's neighbours of
         points a few centimetres apart are nearly the same points: one estimate per voxel of
         the working cloud costs what the working cloud costs, whatever the scan's density.
+    voxels : that grid's (representatives, voxel_of) of ``cloud.xyz`` when already known
+        (:func:`clean_voxels`), or None.
 
     Returns
     -------
@@ -273,7 +289,7 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     sheets = s is None and params.one_sided_planarity > 0 and params.sheet_gap > 0  # no positions
     q = voxel_of = None  # the points estimated (None: every point) and each point's voxel
     if share > 0:
-        q, voxel_of = _voxel_keys(cloud.xyz, share, True)
+        q, voxel_of = _voxel_keys(cloud.xyz, share, True) if voxels is None else voxels
         if len(q) > _SHARE_WORTH * len(cloud):  # hardly two points a voxel: one each
             q = voxel_of = None
     if q is None:
