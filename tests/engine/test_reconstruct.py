@@ -2,14 +2,18 @@
 import numpy as np
 import pytest
 
-from engine.pipeline import ChoiceParams, choose_method, manhattan_score, preprocess
+from engine.pipeline import ChoiceParams, manhattan_score, preprocess
 from engine.reconstruct import model_report
 
 AUTO_THRESHOLD = ChoiceParams().manhattan_threshold
 
 
 def _choose(cloud):
-    return choose_method(preprocess(cloud, rng=0))
+    """The method ``auto`` chose and its Manhattan score, as the model records them."""
+    from engine.reconstruct import reconstruct
+
+    m = reconstruct(cloud, "auto", rng=0)
+    return m.provenance.method, m.provenance.parameters["manhattan_score"]
 
 
 @pytest.mark.parametrize("name, noise, expected", [
