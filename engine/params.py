@@ -12,6 +12,7 @@ the data (``None`` in Python).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 import tomllib
@@ -71,10 +72,12 @@ def _fields(cls) -> dict:
     return {f.name: f for f in dataclasses.fields(cls)}
 
 
+@functools.lru_cache(maxsize=None)
 def _hints(cls) -> dict:
     return typing.get_type_hints(cls, include_extras=True)
 
 
+@functools.lru_cache(maxsize=None)  # parsed once per class: the add-on's panels ask 10 times
 def _docs(cls) -> dict:
     """Attribute docstrings of a dataclass (the string literal under each field)."""
     import ast

@@ -175,7 +175,9 @@ def convert_one(pkg, scan, args, name, params=None):
     bpy.ops.wm.read_homefile(app_template="", use_factory_startup=True)
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj, do_unlink=True)
-    res = bpy.ops.indoor.import_scan(filepath=os.path.abspath(scan))
+    frame = result.model.provenance.parameters.get("frame") or {}  # found once, by the engine
+    res = bpy.ops.indoor.import_scan(filepath=os.path.abspath(scan), units=frame.get("units", args.units),
+                                     up_axis=frame.get("up", args.up))
     if res != {"FINISHED"}:
         raise RuntimeError("import into Blender failed")
     bridge = importlib.import_module(PACKAGE + ".blender_indoor_addon.bridge")

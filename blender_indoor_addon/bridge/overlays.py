@@ -8,7 +8,6 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ...engine.evaluation.patches import polygon_triangles
 from ...engine.topology import space_graph
 from .collections import ensure_collection, remove_object
 from .shapes import model_matrix
@@ -200,7 +199,7 @@ def patches_to_objects(patches, values, *, collection: str, attribute: str, flag
     mat = overlay_material()
     objs = []
     for p, v, c in zip(patches, values, colors):
-        verts, tris = polygon_triangles(p)
+        verts, tris = _polygon_triangles(p)
         name = f"{prefix}{p.name or p.shape_id} {p.kind} {p.face}"
         mesh = bpy.data.meshes.new(name)
         mesh.from_pydata(verts.tolist(), [], tris.tolist())
@@ -222,3 +221,11 @@ def patches_to_objects(patches, values, *, collection: str, attribute: str, flag
         coll.objects.link(obj)
         objs.append(obj)
     return objs
+
+
+def _polygon_triangles(p):
+    """engine.evaluation's triangulation, imported when a result is first drawn: the
+    evaluation package is not needed to open the add-on (the batch's start-up)."""
+    from ...engine.evaluation.patches import polygon_triangles
+
+    return polygon_triangles(p)

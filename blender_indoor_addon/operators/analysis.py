@@ -1,4 +1,7 @@
-"""Detect changes (a newer scan against the model) and Evaluate (the model against a reference)."""
+"""Detect changes (a newer scan against the model) and Evaluate (the model against a reference).
+
+engine.change and engine.evaluation are imported when an operator runs, not with the add-on:
+Blender starts (and the batch converts) without them."""
 from __future__ import annotations
 
 import json
@@ -9,8 +12,6 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 
-from ...engine.change import detect_changes
-from ...engine.evaluation import evaluate, load_model, write_evaluation_outputs
 from ...engine.io import read_point_cloud
 from .. import bridge
 from .common import has_model, stored_or_report
@@ -42,6 +43,8 @@ class INDOOR_OT_detect_changes(bpy.types.Operator, ImportHelper):
         return ImportHelper.invoke(self, context, event)
 
     def execute(self, context):
+        from ...engine.change import detect_changes
+
         model = stored_or_report(self, context)
         if model is None:
             return {"CANCELLED"}
@@ -126,6 +129,8 @@ class INDOOR_OT_evaluate(bpy.types.Operator, ImportHelper):
         return has_model(context)
 
     def execute(self, context):
+        from ...engine.evaluation import evaluate, load_model, write_evaluation_outputs
+
         model = stored_or_report(self, context)
         if model is None:
             return {"CANCELLED"}

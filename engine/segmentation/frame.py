@@ -742,7 +742,8 @@ def normalize_frame(cloud: PointCloud, units: str = "auto", up: str = "auto",
     notes: list = []  # warnings a user should see
     given_scale = None if units == "auto" else UNITS[units]
     s_all, e = checked_sample(cloud, params, given_scale, rng)
-    s = _building(cloud, s_all, params, rng)
+    # the building's sample serves the detections alone: with both given, the checks suffice
+    s = _building(cloud, s_all, params, rng) if "auto" in (units, up) else s_all
     if up == "auto":
         ug = _decide_up(s, params)
         if ug.confidence < params.min_up_confidence:

@@ -3,6 +3,7 @@
 Models are the true models of engine.synthetic presets (known rooms, walls, doors), put in
 the scene with the bridge, so the operators are tested without a reconstruction run.
 """
+import importlib
 import json
 import os
 
@@ -340,7 +341,9 @@ def test_a_bug_in_detect_changes_leaves_no_new_scan(addon, change_demo, tmp_path
     def engine_bug(*a, **k):
         raise KeyError("registration")
 
-    monkeypatch.setattr(addon.operators.analysis, "detect_changes", engine_bug)
+    # the operator imports engine.change when it runs: patch it there
+    change = importlib.import_module(addon.__name__.rsplit(".", 1)[0] + ".engine.change")
+    monkeypatch.setattr(change, "detect_changes", engine_bug)
     with pytest.raises(RuntimeError, match="internal error: KeyError"):
         bpy.ops.indoor.detect_changes(filepath=str(good))
     assert bu.scene_state() == before and scene.indoor.change_summary == ""
