@@ -115,8 +115,9 @@ def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyF
             # the ceiling level of a low room elsewhere
             k = np.floor(q[band][:, :2] / params.level_cell).astype(np.int64)
             hit = np.zeros(int(band.sum()), dtype=bool)
-            for du in (-1, 0, 1):
-                for dv in (-1, 0, 1):
+            r = max(1, int(np.ceil(params.wall_top_reach * spacing / params.level_cell)))
+            for du in range(-r, r + 1):
+                for dv in range(-r, r + 1):
                     hit |= cells(k + np.array([du, dv]))
             band[np.flatnonzero(band)[~hit]] = False
         if np.unique(np.floor(q[band, o] / spacing)).size * spacing >= params.min_wall_top_length:

@@ -223,6 +223,11 @@ class ManhattanParams:
     min_wall_top_length: Metres = 0.5
     """The points within ``wall_top_band`` below the ceiling must cover at least this length
     along the wall, metres."""
+    wall_top_reach: Factor = 2.5
+    """Those points must lie under the ceiling: within one ``level_cell`` of a cell its points
+    occupy, or within this many point spacings σ when that is farther. Next to a wall the
+    ceiling's own normals are spoiled over their neighbourhood (2.5 σ, docs/method.md §1): on
+    a sparse scan (σ 16 cm) the ceiling read as unseen for 40 cm along a partition's top."""
     extent_percentile: Percent = 0.5
     """Where no wall bounds the seen ceiling, the grid ends at this percentile (and 100 −
     it) of the ceiling points' coordinates (robust to a few stray points), percent."""

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import EmptyCloudError
 from ..geometry.kdtree import kdtree, spatial_order
 from ..geometry.normals import (SHEET_TILT, eigenvalues_3x3, hybrid_covariances, knn_normals,
-                                one_sided_normals, sheet_normals, smallest_eigenpairs)
+                                one_sided_normals, sheet_normals, smallest_eigenpairs, wall_sheet_normals)
 from ..lazy_open3d import open3d
 from ..pointcloud import PointCloud
 from ..progress import Progress
@@ -302,7 +302,7 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         if not (one_sided or sheets):
             cov = None
     qx = np.arange(len(cloud)) if q is None else q  # the estimated points' indices in the cloud
-    wide = np.zeros(0, np.int64)
+    wide = beside = np.zeros(0, np.int64)
     if cov is not None:
         # the neighbourhood's radius is about √(2 · trace): only wide ones can reach a second sheet
         trace = cov[:, 0, 0] + cov[:, 1, 1] + cov[:, 2, 2]
@@ -310,6 +310,7 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         w = eigenvalues_3x3(cov[wide])
         wide = wide[w[:, 0] > params.one_sided_planarity * w[:, 1]]  # and far from planar
         if sheets:
+            beside = wide  # side by side: the two faces of a partition (below)
             # two horizontal sheets spread the neighbourhood in height by at least what a sixth
             # of it at ``sheet_gap`` from the rest does: a noisy floor's is not split
             wide = wide[cov[wide, 2, 2] >= (5 / 36) * params.sheet_gap ** 2]
@@ -334,6 +335,16 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         got = np.isfinite(n1).all(axis=1)
         nrm[redo[got]] = n1[got]
         log.debug("normals: %d of %d points re-estimated over their own sheet", int(got.sum()), len(nrm))
+        beside = np.setdiff1d(beside, redo[got])
+    beside = beside[~bad[beside]]
+    if sheets and params.wall_sheet_gap > 0 and len(beside):
+        # nor which face of a partition: the faces are told apart by the gap between them
+        tree = kdtree(cloud.xyz) if tree is None else tree
+        n1 = wall_sheet_normals(cloud.xyz, qx[beside], params.max_nn, params.radius, params.wall_sheet_gap,
+                                planarity=params.one_sided_planarity, tree=tree)
+        got = np.isfinite(n1).all(axis=1)
+        nrm[beside[got]] = n1[got]
+        log.debug("normals: %d of %d points re-estimated over their own face", int(got.sum()), len(nrm))
     elif len(redo):
         # neighbourhoods far from planar and wide enough to reach a second sheet (the other
         # face of a partition, a table's underside): again over the points seen from this side

@@ -97,6 +97,11 @@ class NormalParams:
     slab; not a floor and the ground 5 cm under it outside a door, which turned FZK-Haus's
     storey floor 5 cm low) is estimated again over its own sheet
     (:func:`engine.geometry.normals.sheet_normals`). 0: never."""
+    wall_sheet_gap: Metres = 0.05
+    """Without scanner positions, such a point (wide and far from planar) whose neighbours lie
+    in two vertical sheets side by side at least this far apart (the faces of a partition 7 cm
+    thick or more, under 1 cm of noise) is estimated again over its own sheet
+    (:func:`engine.geometry.normals.wall_sheet_normals`). 0: never."""
 
 
 @dataclass(frozen=True)

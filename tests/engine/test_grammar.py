@@ -803,3 +803,24 @@ def test_a_ceilings_far_scan_lines_are_followed_until_a_jump():
     assert _scan_lines(np.array([10.8, 10.85]), 0.5) == 0.0  # nothing near the edge
     assert _scan_lines(np.array([0.1, 0.2, 0.3]), 0.5) == pytest.approx(0.3)
     assert _scan_lines(np.array([]), 0.5) == 0.0
+
+
+@pytest.mark.parametrize("spacing, reaches", [(0.16, True), (0.03, False)])
+def test_a_walls_top_reaches_a_ceiling_seen_as_far_as_its_normals_are_spoiled(spacing, reaches):
+    """A wall's top (points 5-15 cm under the ceiling along 2 m) counts only under a seen
+    ceiling. Next to the wall the ceiling's normals are spoiled over their neighbourhood
+    (2.5 σ), so its seen cells begin that far out: 60 cm here, beyond the one 25 cm cell
+    around the wall's that counted before. At σ = 16 cm (a sparse scan: two_storey_office at
+    100k points without positions lost a partition so) that is the ceiling over the wall; on
+    a dense scan (σ 3 cm) a ceiling seen only from 60 cm away is not."""
+    from engine.grammar.manhattan import _cell_lookup, _reaches_ceiling
+    from engine.grammar.place import StoreyFrame
+
+    rng = np.random.default_rng(0)
+    top = np.c_[rng.normal(0.0, 0.005, 200), rng.uniform(0.0, 2.0, 200), rng.uniform(2.35, 2.45, 200)]
+    ceiling = np.c_[rng.uniform(0.6, 3.0, 800), rng.uniform(0.0, 2.0, 800), np.full(800, 2.5)]
+    params = ManhattanParams(noise=0.0, bin_size=0.05, shape_buffer=0.05)
+    cells = [_cell_lookup(ceiling[:, :2], params.level_cell)]
+    frame = StoreyFrame(0.0, (2.5,))
+    assert _reaches_ceiling(top, 0, 0.0, frame, params, spacing, None)  # at the ceiling's height
+    assert _reaches_ceiling(top, 0, 0.0, frame, params, spacing, cells) == reaches
