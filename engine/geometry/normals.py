@@ -222,6 +222,21 @@ def one_sided_normals(xyz: np.ndarray, view: np.ndarray, query: np.ndarray, k: i
     return out
 
 
+def _largest_gap(d: np.ndarray, cnt: np.ndarray, min_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per row of (m, k) offsets of a point's neighbours along one direction (inf past its
+    ``cnt`` neighbours): the largest gap between consecutive sorted offsets with at least
+    ``min_points`` on either side (-inf: none) and the cut in its middle."""
+    ds = np.sort(d, axis=1)
+    with np.errstate(invalid="ignore"):  # inf - inf past the last neighbour: NaN, not a gap
+        g = np.diff(ds, axis=1)  # the gap after sorted neighbour j
+    j = np.arange(g.shape[1])[None, :]
+    valid = (j + 1 >= min_points) & (cnt[:, None] - j - 1 >= min_points) & np.isfinite(g)
+    g = np.where(valid, g, -np.inf)
+    jb = np.argmax(g, axis=1)
+    at = np.arange(len(d))
+    return g[at, jb], 0.5 * (ds[at, jb] + ds[at, jb + 1])
+
+
 SHEET_TILT = math.radians(25.0)
 """A sheet split is kept where the point's own sheet is horizontal within this (radians)."""
 
@@ -260,20 +275,10 @@ def sheet_normals(xyz: np.ndarray, query: np.ndarray, k: int, radius: float, gap
     if len(query) == 0 or len(xyz) < 2 * min_points:
         return out
     cols = [np.ascontiguousarray(xyz[:, c]) for c in range(3)]
-    rows = np.arange(int(min(k, len(xyz))))
     for s, qi, nb, ok in _neighbour_chunks(xyz, query, k, radius, tree, workers):
-        cnt = ok.sum(axis=1)
         dz = np.where(ok, cols[2][nb] - cols[2][qi, None], np.inf)
-        zs = np.sort(dz, axis=1)
-        with np.errstate(invalid="ignore"):  # inf - inf past the last neighbour: NaN, not a gap
-            g = np.diff(zs, axis=1)  # the gap after sorted neighbour j
-        j = rows[None, :-1]
-        valid = (j + 1 >= min_points) & (cnt[:, None] - j - 1 >= min_points) & np.isfinite(g)
-        g = np.where(valid, g, -np.inf)
-        jb = np.argmax(g, axis=1)
-        best = g[np.arange(len(qi)), jb]
+        best, cut = _largest_gap(dz, ok.sum(axis=1), min_points)
         split = best >= gap
-        cut = 0.5 * (zs[np.arange(len(qi)), jb] + zs[np.arange(len(qi)), jb + 1])
         # the point's own side of the cut (its own dz is 0)
         keep = ok & np.where((cut > 0)[:, None], dz <= cut[:, None], dz > cut[:, None])
         w, n, n_keep = _masked_pca(cols, nb, qi, keep)
@@ -312,31 +317,21 @@ def wall_sheet_normals(xyz: np.ndarray, query: np.ndarray, k: int, radius: float
     if len(query) == 0 or len(xyz) < 2 * min_points:
         return out
     cols = [np.ascontiguousarray(xyz[:, c]) for c in range(3)]
-    rows = np.arange(int(min(k, len(xyz))))
     angles = np.arange(directions) * (math.pi / directions)
     for s, qi, nb, ok in _neighbour_chunks(xyz, query, k, radius, tree, workers):
         m = len(qi)
         cnt = ok.sum(axis=1)
         dx = np.where(ok, cols[0][nb] - cols[0][qi, None], 0.0)
         dy = np.where(ok, cols[1][nb] - cols[1][qi, None], 0.0)
-        j = rows[None, :-1]
         best = np.full(m, -np.inf)
         cut = np.zeros(m)
         axis = np.zeros((m, 2))
         for a in angles:
             c, sn = math.cos(a), math.sin(a)
-            t = np.where(ok, dx * c + dy * sn, np.inf)
-            ts = np.sort(t, axis=1)
-            with np.errstate(invalid="ignore"):  # inf - inf past the last neighbour: NaN, not a gap
-                g = np.diff(ts, axis=1)
-            valid = (j + 1 >= min_points) & (cnt[:, None] - j - 1 >= min_points) & np.isfinite(g)
-            g = np.where(valid, g, -np.inf)
-            jb = np.argmax(g, axis=1)
-            gb = g[np.arange(m), jb]
+            gb, cb = _largest_gap(np.where(ok, dx * c + dy * sn, np.inf), cnt, min_points)
             better = gb > best
             best = np.where(better, gb, best)
-            at = np.arange(m)
-            cut = np.where(better, 0.5 * (ts[at, jb] + ts[at, np.minimum(jb + 1, len(rows) - 1)]), cut)
+            cut = np.where(better, cb, cut)
             axis[better] = (c, sn)
         t = dx * axis[:, 0:1] + dy * axis[:, 1:2]
         keep = ok & np.where((cut > 0)[:, None], t <= cut[:, None], t > cut[:, None])  # own side: t = 0

@@ -328,23 +328,24 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         # stays near horizontal however noisy, a floor's already within the split's tilt
         nz = np.abs(nrm[redo, 2])
         redo = redo[(nz >= 0.1) & (nz < np.cos(SHEET_TILT))]
-    if len(redo) and sheets:
+
+    def own_sheet(estimate, idx, gap, what):  # again over each point's own sheet; the points done
+        nonlocal tree
         tree = kdtree(cloud.xyz) if tree is None else tree
-        n1 = sheet_normals(cloud.xyz, qx[redo], params.max_nn, params.radius, params.sheet_gap,
-                           planarity=params.one_sided_planarity, tree=tree)
+        n1 = estimate(cloud.xyz, qx[idx], params.max_nn, params.radius, gap,
+                      planarity=params.one_sided_planarity, tree=tree)
         got = np.isfinite(n1).all(axis=1)
-        nrm[redo[got]] = n1[got]
-        log.debug("normals: %d of %d points re-estimated over their own sheet", int(got.sum()), len(nrm))
-        beside = np.setdiff1d(beside, redo[got])
-    beside = beside[~bad[beside]]
-    if sheets and params.wall_sheet_gap > 0 and len(beside):
-        # nor which face of a partition: the faces are told apart by the gap between them
-        tree = kdtree(cloud.xyz) if tree is None else tree
-        n1 = wall_sheet_normals(cloud.xyz, qx[beside], params.max_nn, params.radius, params.wall_sheet_gap,
-                                planarity=params.one_sided_planarity, tree=tree)
-        got = np.isfinite(n1).all(axis=1)
-        nrm[beside[got]] = n1[got]
-        log.debug("normals: %d of %d points re-estimated over their own face", int(got.sum()), len(nrm))
+        nrm[idx[got]] = n1[got]
+        log.debug("normals: %d of %d points re-estimated over their own %s", int(got.sum()), len(nrm), what)
+        return idx[got]
+
+    if sheets:
+        if len(redo):
+            beside = np.setdiff1d(beside, own_sheet(sheet_normals, redo, params.sheet_gap, "sheet"))
+        beside = beside[~bad[beside]]
+        if params.wall_sheet_gap > 0 and len(beside):
+            # nor which face of a partition: the faces are told apart by the gap between them
+            own_sheet(wall_sheet_normals, beside, params.wall_sheet_gap, "face")
     elif len(redo):
         # neighbourhoods far from planar and wide enough to reach a second sheet (the other
         # face of a partition, a table's underside): again over the points seen from this side

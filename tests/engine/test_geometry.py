@@ -224,6 +224,29 @@ def test_wall_sheet_normals_tell_the_two_faces_of_a_partition_apart(seed):
         assert (np.abs(corner[kept & (which == w) & off_edge, w]) >= np.cos(np.deg2rad(15))).all()
 
 
+def test_the_partition_split_is_a_setting_of_the_normals_without_positions():
+    """``wall_sheet_gap``: 0 turns the split off (it once sent such a cloud on to the
+    one-sided rule, which needs scanner positions: a TypeError), 5 cm turns a partition's
+    blur into its faces."""
+    from dataclasses import replace
+
+    from engine.pointcloud import PointCloud
+    from engine.segmentation.cleaning import estimate_normals
+    from engine.segmentation.params import NormalParams
+
+    rng = np.random.default_rng(5)
+    k = 700
+    z = [rng.choice(np.arange(0.2, 2.6, 0.12), k) + rng.normal(0, 0.004, k) for _ in range(2)]
+    part = np.vstack([np.c_[x0 + rng.normal(0, 0.004, k), rng.uniform(0, 4, k), zz]
+                      for x0, zz in zip((0.0, 0.14), z)])
+    cloud = PointCloud(xyz=part)  # no scanner positions
+    facing = {}
+    for gap in (0.0, 0.05):
+        n = estimate_normals(cloud, replace(NormalParams(), radius=0.22, wall_sheet_gap=gap)).normals
+        facing[gap] = float(np.mean(np.abs(n[:, 0]) >= np.cos(np.deg2rad(10))))
+    assert facing[0.05] >= facing[0.0] + 0.3, facing
+
+
 def test_one_shared_tree_gives_the_same_spacing_and_noise():
     """The Manhattan method builds one k-d tree of the full cloud, in the input frame, for the
     spacing, the normals' fallback and the noise of the aligned cloud: the noise is the PCA's
