@@ -92,16 +92,16 @@ def reconstruct(cloud: PointCloud, method: str = "auto", *, params=None, rng=0, 
     # method finds its normals and planes anew, as --method generic does
     prep = preprocess(cloud, pp, rng=copy.deepcopy(gen) if method == "auto" else gen,
                       planes=method != "manhattan", full_normals=method != "generic",
-                      progress=p.sub(0.0, 0.4), cleaned=cleaned,
+                      progress=p.sub(0.0, 0.3 if method == "auto" else 0.4), cleaned=cleaned,
                       plane_kinds=("wall",) if method == "auto" else ("wall", "horizontal"))
     choice = {}
     if method == "auto":
         method, score = choose_method(prep, params.choice)
-        p(0.4, f"method: {method}")
+        p(0.3, f"method: {method}")
         choice = {"method_choice": "auto", "manhattan_score": round(score, 4)}
         if method == "generic":
             spent = sum(v for k, v in prep.timings.items() if k not in cleaned.timings)
-            prep = preprocess(cloud, pp, rng=gen, progress=p.sub(0.0, 0.4), cleaned=cleaned)
+            prep = preprocess(cloud, pp, rng=gen, progress=p.sub(0.3, 0.4), cleaned=cleaned)
             prep = replace(prep, timings={**prep.timings, "method_choice": spent})
     if prep.cleaning.get("scanner_positions_dropped"):  # the elements read the input cloud's too
         cloud, _ = plausible_scanners(cloud, pp.clean.scanner_margin,
