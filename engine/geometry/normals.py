@@ -222,6 +222,14 @@ def one_sided_normals(xyz: np.ndarray, view: np.ndarray, query: np.ndarray, k: i
     return out
 
 
+def _split_inputs(xyz, query):
+    """``xyz`` (n, 3) float64, ``query`` int64, NaN normals for the query points, and the
+    points' contiguous x, y, z: what the split rules below start from."""
+    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    query = np.asarray(query, dtype=np.int64)
+    return xyz, query, np.full((len(query), 3), np.nan), [np.ascontiguousarray(xyz[:, c]) for c in range(3)]
+
+
 def _largest_gap(d: np.ndarray, cnt: np.ndarray, min_points: int) -> tuple[np.ndarray, np.ndarray]:
     """Per row of (m, k) offsets of a point's neighbours along one direction (inf past its
     ``cnt`` neighbours): the largest gap between consecutive sorted offsets with at least
@@ -269,12 +277,9 @@ def sheet_normals(xyz: np.ndarray, query: np.ndarray, k: int, radius: float, gap
 
     Returns (m, 3) float64 unit normals (sign arbitrary) or NaN rows (keep the other estimate).
     """
-    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
-    query = np.asarray(query, dtype=np.int64)
-    out = np.full((len(query), 3), np.nan)
+    xyz, query, out, cols = _split_inputs(xyz, query)
     if len(query) == 0 or len(xyz) < 2 * min_points:
         return out
-    cols = [np.ascontiguousarray(xyz[:, c]) for c in range(3)]
     for s, qi, nb, ok in _neighbour_chunks(xyz, query, k, radius, tree, workers):
         dz = np.where(ok, cols[2][nb] - cols[2][qi, None], np.inf)
         best, cut = _largest_gap(dz, ok.sum(axis=1), min_points)
@@ -311,12 +316,9 @@ def wall_sheet_normals(xyz: np.ndarray, query: np.ndarray, k: int, radius: float
 
     Returns (m, 3) float64 unit normals (sign arbitrary) or NaN rows (keep the other estimate).
     """
-    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
-    query = np.asarray(query, dtype=np.int64)
-    out = np.full((len(query), 3), np.nan)
+    xyz, query, out, cols = _split_inputs(xyz, query)
     if len(query) == 0 or len(xyz) < 2 * min_points:
         return out
-    cols = [np.ascontiguousarray(xyz[:, c]) for c in range(3)]
     angles = np.arange(directions) * (math.pi / directions)
     for s, qi, nb, ok in _neighbour_chunks(xyz, query, k, radius, tree, workers):
         m = len(qi)
