@@ -286,7 +286,8 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
     p(0.0, "normals")
     s = _scanner_of_points(cloud)
     one_sided = s is not None and params.one_sided_planarity > 0
-    sheets = s is None and params.one_sided_planarity > 0 and params.sheet_gap > 0  # no positions
+    # no positions: sheets told apart by the gap between them, in height or side by side
+    sheets = s is None and params.one_sided_planarity > 0 and max(params.sheet_gap, params.wall_sheet_gap) > 0
     q = voxel_of = None  # the points estimated (None: every point) and each point's voxel
     if share > 0:
         q, voxel_of = _voxel_keys(cloud.xyz, share, True) if voxels is None else voxels
@@ -340,7 +341,7 @@ def estimate_normals(cloud: PointCloud, params: NormalParams = NormalParams(), *
         return idx[got]
 
     if sheets:
-        if len(redo):
+        if len(redo) and params.sheet_gap > 0:
             beside = np.setdiff1d(beside, own_sheet(sheet_normals, redo, params.sheet_gap, "sheet"))
         beside = beside[~bad[beside]]
         if params.wall_sheet_gap > 0 and len(beside):

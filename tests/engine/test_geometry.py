@@ -227,7 +227,7 @@ def test_wall_sheet_normals_tell_the_two_faces_of_a_partition_apart(seed):
 def test_the_partition_split_is_a_setting_of_the_normals_without_positions():
     """``wall_sheet_gap``: 0 turns the split off (it once sent such a cloud on to the
     one-sided rule, which needs scanner positions: a TypeError), 5 cm turns a partition's
-    blur into its faces."""
+    blur into its faces, whatever ``sheet_gap`` (the split in height) is."""
     from dataclasses import replace
 
     from engine.pointcloud import PointCloud
@@ -241,10 +241,13 @@ def test_the_partition_split_is_a_setting_of_the_normals_without_positions():
                       for x0, zz in zip((0.0, 0.14), z)])
     cloud = PointCloud(xyz=part)  # no scanner positions
     facing = {}
-    for gap in (0.0, 0.05):
-        n = estimate_normals(cloud, replace(NormalParams(), radius=0.22, wall_sheet_gap=gap)).normals
-        facing[gap] = float(np.mean(np.abs(n[:, 0]) >= np.cos(np.deg2rad(10))))
-    assert facing[0.05] >= facing[0.0] + 0.3, facing
+    for height, gap in ((0.1, 0.0), (0.1, 0.05), (0.0, 0.05)):
+        npar = replace(NormalParams(), radius=0.22, sheet_gap=height, wall_sheet_gap=gap)
+        n = estimate_normals(cloud, npar).normals
+        facing[height, gap] = float(np.mean(np.abs(n[:, 0]) >= np.cos(np.deg2rad(10))))
+    assert facing[0.1, 0.05] >= facing[0.1, 0.0] + 0.3, facing
+    # the split in height turned off leaves the split across the partition on (it once did not)
+    assert facing[0.0, 0.05] >= facing[0.1, 0.0] + 0.3, facing
 
 
 def test_one_shared_tree_gives_the_same_spacing_and_noise():
