@@ -27,6 +27,7 @@ from .grammar.generic import generic_model
 from .grammar.manhattan import manhattan_model
 from .ifc import IfcWriteParams
 from .ifc import write_ifc as _write_ifc
+from .ifc.common import preload_writer_modules
 from .io import read_point_cloud
 from .jobs import check_output_dir
 from .model import BuildingModel
@@ -237,6 +238,8 @@ def convert_file(path: str | os.PathLike, out_dir: str | os.PathLike, *, method:
         raise InputError(f"method must be one of {', '.join(METHODS)}, not {method!r}")
     check_output_dir(out_dir)
     p = Progress.wrap(progress, should_stop)
+    if write_ifc:
+        preload_writer_modules()  # ifcopenshell loads while the scan is reconstructed
     t0 = time.perf_counter()
     cloud = read_point_cloud(path, progress=p.sub(0.0, 0.1))
     t_read = time.perf_counter() - t0

@@ -537,3 +537,46 @@ def test_by_default_one_ifcspace_per_room(tmp_path):
     lossless = str(tmp_path / "parts.ifc")
     write_ifc(m, lossless, params=LOSSLESS)
     assert len(ifcopenshell.open(lossless).by_type("IfcSpace")) > len(rooms)
+
+
+_PRELOAD = """
+import sys, threading
+sys.path.insert(0, {root!r})
+if {missing}:
+    sys.modules["ifcopenshell"] = None  # not installed
+from engine.ifc import common
+common.preload_writer_modules()
+common.preload_writer_modules()  # once per process
+threads = [t for t in threading.enumerate() if t.name == "ifc-preload"]
+assert len(common._preloading) == 1 and len(threads) <= 1
+common._preloading[0].join(60)
+loaded = [m for m in common.WRITER_MODULES if sys.modules.get(m) is not None]
+print(len(loaded), len(common.WRITER_MODULES))
+if {missing}:
+    from engine.errors import MissingDependencyError
+    from engine.ifc import write_ifc
+    try:
+        write_ifc(None, "x.ifc")
+    except MissingDependencyError as e:
+        print("missing:", e)
+"""
+
+
+@pytest.mark.parametrize("missing", [False, True])
+def test_writer_modules_preload_in_the_background_once(tmp_path, missing):
+    """A convert that writes an IFC starts importing ifcopenshell while it reconstructs; a
+    missing ifcopenshell is still reported by the writer, not by the background thread."""
+    import subprocess
+    import sys
+
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    proc = subprocess.run([sys.executable, "-c", _PRELOAD.format(root=root, missing=missing)], cwd=str(tmp_path),
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    lines = proc.stdout.split("\n")
+    n, total = map(int, lines[0].split())
+    if missing:
+        assert n == 0 and "missing:" in proc.stdout and "ifcopenshell" in lines[1]
+        assert "Traceback" not in proc.stderr
+    else:
+        assert n == total == 7

@@ -81,6 +81,23 @@ def test_same_seed_same_global_ids_in_process_and_time_stamp_only_differs(tmp_pa
     assert all(ifcopenshell.guid.expand(g) for g in gids)  # valid compressed GUIDs
 
 
+def test_run_times_in_the_trace_do_not_change_the_file(tmp_path, monkeypatch):
+    """The rjMCMC trace records its seconds; two runs of one scan and seed differ only there,
+    and their IFC must not (the timings stay in the JSON report)."""
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", str(EPOCH))
+    m = small_model()
+    texts = []
+    for k, sec in enumerate((0.129, 0.132)):
+        pv = m.provenance
+        trace = {"accepted": {"add": 3}, "seconds": sec, "chains": [{"seconds": sec, "moves": 9}],
+                 "timings": {"cells": sec}}
+        mk = m.with_(provenance=Provenance(pv.method, pv.parameters, pv.seed, pv.timings, trace, pv.source,
+                                           pv.software))
+        texts.append(open(write_ifc(mk, tmp_path / str(k) / "m.ifc")).read())
+    assert texts[0] == texts[1]
+    assert '"moves":9' in texts[0] and '"add":3' in texts[0]  # the rest of the trace is kept
+
+
 def test_every_root_entity_gets_its_key_derived_id(tmp_path):
     """GlobalIds are name-based on (seed, model name, identity): a wall, its door's opening, a
     pset and a relationship have the ids their keys give; every IfcRoot entity has one."""

@@ -365,3 +365,58 @@ def test_confidence_is_a_property_of_detected_openings_and_partly_seen_rooms(tmp
     conf = {e.Name: ue.get_psets(e).get("Indoor_Shape", {}).get("Confidence")
             for e in f.by_type("IfcSpace")}
     assert conf["Room"] == pytest.approx(0.75) and conf["Other"] is None
+
+
+@pytest.mark.parametrize("schema", ["IFC4", "IFC4X3"])
+def test_property_and_quantity_types_are_the_templates(tmp_path, schema):
+    """The sets are written without ifcopenshell.api (engine.ifc.properties): every standard
+    property takes its buildingSMART template's measure type and every base quantity its
+    template's kind, as the api would give them; our own sets type by value."""
+    import ifcopenshell.util.pset as upset
+
+    path = write_ifc(element_model(), tmp_path / "m.ifc", schema=schema)
+    f = ifcopenshell.open(path)
+    templates = upset.get_template(f.schema_identifier)
+    checked = set()
+    for d in f.by_type("IfcPropertySet") + f.by_type("IfcElementQuantity"):
+        assert len(d.DefinesOccurrence) == 1 and len(d.DefinesOccurrence[0].RelatedObjects) == 1
+        t = templates.get_by_name(d.Name)
+        if d.Name.startswith("Indoor_"):
+            for p in d.HasProperties:
+                v = p.NominalValue
+                assert v.is_a() in ("IfcLabel", "IfcText", "IfcBoolean", "IfcInteger", "IfcReal"), (d.Name, p.Name)
+            continue
+        assert t is not None, d.Name
+        kinds = {pt.Name: pt for pt in t.HasPropertyTemplates}
+        for p in (d.HasProperties if d.is_a("IfcPropertySet") else d.Quantities):
+            pt = kinds[p.Name]
+            if d.is_a("IfcPropertySet"):
+                assert p.NominalValue.is_a() == pt.PrimaryMeasureType, (d.Name, p.Name)
+            else:
+                assert p.is_a() == "IfcQuantity" + pt.TemplateType[2:].capitalize(), (d.Name, p.Name)
+                assert d.MethodOfMeasurement == "BaseQuantities"
+            checked.add((d.Name, p.Name))
+    names = {n for n, _ in checked}
+    assert {"Pset_WallCommon", "Pset_DoorCommon", "Pset_WindowCommon", "Pset_SlabCommon", "Qto_WallBaseQuantities",
+            "Qto_DoorBaseQuantities", "Qto_WindowBaseQuantities", "Qto_SlabBaseQuantities",
+            "Qto_SpaceBaseQuantities"} <= names
+
+
+def test_other_standard_properties_are_typed_from_the_templates_and_updates_replace_values():
+    from engine.ifc.properties import measure_type, property_values, set_property
+
+    f = ifcopenshell.file(schema="IFC4")
+    assert measure_type("IFC4", "Pset_WallCommon", "ThermalTransmittance", 0.3) == "IfcThermalTransmittanceMeasure"
+    assert measure_type("IFC4", "Pset_WallCommon", "FireRating", "F90") == "IfcLabel"
+    assert measure_type("IFC4", "Pset_WallCommon", "NotInTheTemplate", 2) == "IfcInteger"
+    assert [measure_type("IFC4", "Indoor_Shape", "X", v) for v in ("a", 1.0, True, 3)] == [
+        "IfcLabel", "IfcReal", "IfcBoolean", "IfcInteger"]
+    with pytest.raises(TypeError, match="Indoor_Shape.X"):
+        measure_type("IFC4", "Indoor_Shape", "X", object())
+    ps = f.createIfcPropertySet(ifcopenshell.guid.new(), None, "Indoor_Shape", None,
+                                property_values(f, "Indoor_Shape", {"Kinds": "a", "Gone": None, "N": 2}))
+    assert [p.Name for p in ps.HasProperties] == ["Kinds", "N"]
+    set_property(f, ps, "Kinds", "a,b")
+    set_property(f, ps, "New", 1.5)
+    got = {p.Name: p.NominalValue.wrappedValue for p in ps.HasProperties}
+    assert got == {"Kinds": "a,b", "N": 2, "New": 1.5}
