@@ -50,8 +50,9 @@ def require_ifcopenshell(purpose: str):
     return ifcopenshell
 
 
-WRITER_MODULES = ("ifcopenshell", "ifcopenshell.api.context", "ifcopenshell.api.owner", "ifcopenshell.api.project",
-                  "ifcopenshell.api.root", "ifcopenshell.api.style", "ifcopenshell.api.unit")
+WRITER_MODULES = ("ifcopenshell", "ifcopenshell.api.context", "ifcopenshell.api.owner",
+                  "ifcopenshell.api.project", "ifcopenshell.api.root", "ifcopenshell.api.style",
+                  "ifcopenshell.api.unit")
 """The modules the IFC writer imports (0.1-0.15 s in all)."""
 
 _preloading = []

@@ -119,8 +119,8 @@ class PropertyWriter:
         """A property or quantity set ``name`` of ``product`` and the IfcRelDefinesByProperties
         giving it (:mod:`engine.ifc.properties`)."""
         owner = self._key(product)
-        d = self.f.create_entity(ifc_class, GlobalId=self._gid((owner, "pset", name)), OwnerHistory=self._history(),
-                                 Name=name, **attributes)
+        d = self.f.create_entity(ifc_class, GlobalId=self._gid((owner, "pset", name)),
+                                 OwnerHistory=self._history(), Name=name, **attributes)
         self._own(d, (owner, "pset", name))
         self._rel("IfcRelDefinesByProperties", (owner, "defines", name), RelatedObjects=[product],
                   RelatingPropertyDefinition=d)

@@ -273,9 +273,11 @@ class _Writer(BoundaryWriter, PropertyWriter):
         their defaults), the rest directly (the same entity, 5x faster)."""
         name = None if name is None else safe_text(name) or None
         if ifc_class.endswith("Type"):
-            e = self.api.root.create_entity(self.f, ifc_class=ifc_class, name=name, predefined_type=predefined_type)
+            e = self.api.root.create_entity(self.f, ifc_class=ifc_class, name=name,
+                                            predefined_type=predefined_type)
         else:
-            e = self.f.create_entity(ifc_class, GlobalId=self._gid(key), OwnerHistory=self._history(), Name=name)
+            e = self.f.create_entity(ifc_class, GlobalId=self._gid(key), OwnerHistory=self._history(),
+                                     Name=name)
             if predefined_type:
                 e.PredefinedType = predefined_type
         return self._own(e, key)

@@ -180,7 +180,8 @@ def common_face(space_g: Polyhedron, elem_g: Polyhedron, gap: float, min_cos: fl
     # the pairs of faces anti-parallel and near: the element face's first vertex within
     # ``gap`` of the space face's plane
     v0 = np.array([v[0] for v in ves])
-    near = (-(ns @ ne.T) >= min_cos) & (np.abs(ns @ v0.T - ds[:, None]) <= gap) & np.any(ns != 0, axis=1)[:, None]
+    near = (-(ns @ ne.T) >= min_cos) & (np.abs(ns @ v0.T - ds[:, None]) <= gap)
+    near &= np.any(ns != 0, axis=1)[:, None]
     for i in np.flatnonzero(near.any(axis=1)):
         n, vs = ns[i], vss[i]
         u, w = plane_frame(n, flat_cos=1.0)  # u horizontal on every wall and sloped face

@@ -570,8 +570,8 @@ def test_writer_modules_preload_in_the_background_once(tmp_path, missing):
     import sys
 
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    proc = subprocess.run([sys.executable, "-c", _PRELOAD.format(root=root, missing=missing)], cwd=str(tmp_path),
-                          capture_output=True, text=True, timeout=300)
+    proc = subprocess.run([sys.executable, "-c", _PRELOAD.format(root=root, missing=missing)],
+                          cwd=str(tmp_path), capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     lines = proc.stdout.split("\n")
     n, total = map(int, lines[0].split())
