@@ -61,8 +61,8 @@ from ..geometry.transforms import apply_transform, is_rigid
 from ..model import BuildingModel, Polyhedron, Shape, ShapeType
 from ..progress import Progress
 from .common import (PSET_PROVENANCE, PSET_SHAPE, PSET_STOREY, PSET_SUPPORT, SLAB_MATERIALS, WRITABLE_SCHEMAS,
-                     WRITER_MODULES, connection_type, dumps, global_id, iso_timestamp, millimetres, require_ifcopenshell,
-                     safe_text, source_date_epoch)
+                     WRITER_MODULES, connection_type, dumps, global_id, iso_timestamp, millimetres,
+                     require_ifcopenshell, safe_text, source_date_epoch)
 from .properties import PropertyWriter
 from .writer_geometry import (BoundaryWriter, axis2, axis_line, clean_ring, default_storeys, door_size,
                               opening_geometry, polyline, slab_type, solid, union_rings, wall_frame)
