@@ -144,27 +144,28 @@ def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, sp
         cls = np.clip(np.searchsorted(np.asarray(levels), r * (1 + 1e-9), side="right") - 1, 0, None)
     else:
         cls = np.zeros(len(iu), dtype=np.int64)
-    valid = (ou[:, None] >= 0) & (ov[None, :] >= 0)
-    face = np.where(valid, ou[:, None] * b + ov[None, :], -1)
-    covered = np.zeros(a * b)
-    # discs must not spill into a neighbouring rectangle: dilate the four parity classes
-    # of rectangles (no two of a class touch) separately
-    for cu in (0, 1):
-        for cv in (0, 1):
-            sel = (pu % 2 == cu) & (pv % 2 == cv)
-            if not sel.any():
-                continue
-            cover = np.zeros((nu, nv), dtype=bool)
-            for c in np.unique(cls[sel]):
-                k = int(np.ceil(levels[c] / h))
-                yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
-                grid = np.zeros((nu, nv), dtype=bool)
-                grid[iu[sel & (cls == c)], iv[sel & (cls == c)]] = True
-                cover |= binary_dilation(grid, structure=(xx**2 + yy**2) * h * h <= levels[c] ** 2)
-            mine = valid & ((ou[:, None] % 2) == cu) & ((ov[None, :] % 2) == cv) & cover
-            covered += np.bincount(face[mine], minlength=a * b)
-    covered = covered.reshape(a, b)
-    total = np.bincount(face[face >= 0], minlength=a * b).reshape(a, b)
+    # discs must not spill into a neighbouring rectangle: every rectangle is dilated on its
+    # own, in one pass over a raster with k empty rows and columns between rectangles (each
+    # raster row and column moves 2 k per rectangle boundary before it; a point to its own
+    # rectangle's side, even when its raster cell lies just across the edge)
+    k_max = int(np.ceil(levels[-1] / h))
+    gap = 2 * k_max
+    ru = np.clip(np.searchsorted(u_edges, u0 + (np.arange(nu) + 0.5) * h, side="right") - 1, 0, a - 1)
+    rv = np.clip(np.searchsorted(v_edges, v0 + (np.arange(nv) + 0.5) * h, side="right") - 1, 0, b - 1)
+    shape = (nu + gap * a, nv + gap * b)
+    cover = np.zeros(shape, dtype=bool)
+    piu, piv = iu + gap * pu, iv + gap * pv
+    for c in np.unique(cls):
+        k = int(np.ceil(levels[c] / h))
+        yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+        grid = np.zeros(shape, dtype=bool)
+        grid[piu[cls == c], piv[cls == c]] = True
+        cover |= binary_dilation(grid, structure=(xx**2 + yy**2) * h * h <= levels[c] ** 2)
+    vu, vv = np.flatnonzero(ou >= 0), np.flatnonzero(ov >= 0)
+    face = ou[vu][:, None] * b + ov[vv][None, :]
+    mine = cover[np.ix_(vu + gap * ru[vu], vv + gap * rv[vv])]
+    covered = np.bincount(face[mine], minlength=a * b).reshape(a, b)
+    total = np.bincount(face.ravel(), minlength=a * b).reshape(a, b)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(total > 0, covered / np.maximum(total, 1), 0.0)
 
