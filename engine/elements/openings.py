@@ -35,6 +35,7 @@ from scipy import ndimage
 
 from ..errors import InputError
 from ..geometry.boxes import column_max, column_min, min_area_box
+from ..geometry.sort import stable_argsort
 from ..model import Polyhedron, Shape, ShapeType, Storey
 from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, leaf_columns, leaf_needed,
                    leaf_to_floor, near_points, observed_columns, on_solid)
@@ -115,7 +116,7 @@ def _bucket(xyz: np.ndarray, walls: list[_Wall], reach: float, cell: float) -> l
     ij = np.floor((xy - lo) / cell).astype(np.int64)
     nx, ny = column_max(ij) + 1
     key = ij[:, 0] * ny + ij[:, 1]
-    order = np.argsort(key, kind="stable")
+    order = stable_argsort(key)
     skey, h, out = key[order], cell * 0.7072, []
     for w in walls:
         half = w.thickness / 2 + reach
@@ -300,7 +301,7 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
                 need.setdefault(int(k), []).append((wi, s))
     if not need:
         return
-    order = np.argsort(scan_index, kind="stable")
+    order = stable_argsort(scan_index)
     starts = np.searchsorted(scan_index[order], np.arange(k_n + 1))
     c = p.cell
     solid = ([[near_points(dd.face[0]), near_points(dd.face[1]), near_points(dd.inside)] for dd in data]
@@ -436,8 +437,7 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
         ia, ib = max(0, int(el / c)), max(0, int(math.ceil(er / c)))
         cols = dd.bottom[ia:ib]
         seen = cols[np.isfinite(cols)]
-        # a hole too low for a door needs less: a few columns (its sill seen at a grazing
-        # angle) tell a low window from nothing at all
+        # a hole too low for a door needs less: a few columns (a sill seen grazing) tell a low window
         low_hole = et - z0 < p.min_door_height
         if len(seen) >= (p.min_sill_columns if low_hole else max(2, 0.5 * len(cols))):
             if float(np.median(seen)) >= p.min_sill:

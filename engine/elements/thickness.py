@@ -18,6 +18,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..geometry.boxes import column_min
+from ..geometry.sort import stable_argsort
 from ..model import Shape, ShapeType
 
 __all__ = ["PointGrid", "reveal_depth"]
@@ -40,7 +41,7 @@ class PointGrid:
         ij -= self.lo
         self.ny = int(ij[:, 1].max()) + 1
         keys = ij[:, 0] * self.ny + ij[:, 1]
-        self.order = np.argsort(keys, kind="stable")
+        self.order = stable_argsort(keys)
         self.keys = keys[self.order]
 
     def in_box(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

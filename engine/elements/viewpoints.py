@@ -20,6 +20,7 @@ from typing import Mapping, Optional, Sequence
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..geometry.sort import stable_argsort
 from ..model import Storey
 from .params import ViewpointParams
 
@@ -185,7 +186,7 @@ def visible_pairs(xyz: np.ndarray, viewpoints: np.ndarray,
         clear[sel] = ~blocked
     s_ok, v_ok = s_idx[clear], v_idx[clear]
     # expand source voxels to their points
-    o = np.argsort(inv, kind="stable")
+    o = stable_argsort(inv)
     starts = np.searchsorted(inv[o], np.arange(m + 1))
     pt = o[group_members(starts, s_ok)]
     return pt.astype(np.int64), np.repeat(v_ok, starts[s_ok + 1] - starts[s_ok]).astype(np.int64)

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import Cancelled
 from ..geometry import alpha
+from ..geometry.sort import stable_argsort
 from .patches import PlanarPatch, points_inside
 
 __all__ = ["PatchSupport", "patch_support", "alpha_area", "thin_grid", "PointBuckets"]
@@ -84,7 +85,7 @@ class PointBuckets:
         ijk = np.floor((self.xyz - self.lo) / self.cell).astype(np.int64)
         self.dims = ijk.max(axis=0) + 1
         code = (ijk[:, 0] * self.dims[1] + ijk[:, 1]) * self.dims[2] + ijk[:, 2]
-        self.order = np.argsort(code, kind="stable")
+        self.order = stable_argsort(code)
         self.starts = np.searchsorted(code[self.order], np.arange(int(np.prod(self.dims)) + 1))
 
     def in_box(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

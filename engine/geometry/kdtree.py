@@ -15,6 +15,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .boxes import column_max, column_min
+from .sort import stable_argsort
 __all__ = ["kdtree", "spatial_order"]
 
 
@@ -49,4 +50,4 @@ def spatial_order(points: np.ndarray, cell: float) -> np.ndarray:
     cell = max(float(cell), float((column_max(p) - lo).max()) / (2**21 - 1), 1e-9)
     q = np.floor((p - lo) / cell).astype(np.int64)
     key = _spread_bits(q[:, 0]) | (_spread_bits(q[:, 1]) << 1) | (_spread_bits(q[:, 2]) << 2)
-    return np.argsort(key, kind="stable")
+    return stable_argsort(key)

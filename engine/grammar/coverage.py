@@ -36,6 +36,7 @@ import numpy as np
 
 from ..geometry.alpha import adaptive_alpha, alpha_area, alpha_geometry, alpha_triangles, local_alpha
 from ..geometry.alpha import thin_grid as thin_points
+from ..geometry.sort import stable_argsort
 from .params import CoverageParams
 
 __all__ = ["adaptive_alpha", "local_alpha", "cell_heights", "alpha_triangles", "alpha_area", "alpha_geometry",
@@ -311,7 +312,7 @@ def cell_heights(cells: CellSet, hw: np.ndarray):
         idx = hc[mask]
         z = hw[mask, 2]
         if len(idx):
-            order = np.argsort(idx, kind="stable")
+            order = stable_argsort(idx)
             idx, z = idx[order], z[order]
             cuts = np.flatnonzero(np.diff(idx)) + 1
             for grp_i, grp_z in zip(np.split(idx, cuts), np.split(z, cuts)):

@@ -21,6 +21,7 @@ from ..progress import Progress
 from .params import CleanParams, NormalParams
 from ..threads import thread_cap
 from ..geometry.boxes import column_max, column_min
+from ..geometry.sort import stable_argsort
 
 __all__ = ["drop_nonfinite", "building_points", "voxel_downsample", "remove_statistical_outliers",
            "estimate_normals", "clean", "clean_voxels"]
@@ -96,7 +97,7 @@ def _voxel_count(xyz: np.ndarray, voxel_size: float) -> int:
 def _voxel_keys(xyz: np.ndarray, voxel_size: float, inverse: bool):
     """(kept (m,) int64 sorted, voxel_of (n,) int64 or None) — see :func:`voxel_downsample`."""
     key = _voxel_key(xyz, voxel_size)
-    order = np.argsort(key, kind="stable")  # stable: the first point of a voxel comes first
+    order = stable_argsort(key)  # stable: the first point of a voxel comes first
     ks = key[order]
     first = np.ones(len(ks), bool)
     first[1:] = ks[1:] != ks[:-1]
@@ -105,7 +106,7 @@ def _voxel_keys(xyz: np.ndarray, voxel_size: float, inverse: bool):
         return np.sort(kept), None
     group = np.cumsum(first) - 1  # voxel number of each sorted point
     rank_of_group = np.empty(len(kept), np.int64)
-    korder = np.argsort(kept, kind="stable")  # representatives in input order
+    korder = np.argsort(kept)  # representatives in input order (distinct indices)
     rank_of_group[korder] = np.arange(len(kept))
     voxel_of = np.empty(len(xyz), np.int64)
     voxel_of[order] = rank_of_group[group]

@@ -46,6 +46,7 @@ import numpy as np
 
 from ..errors import InputError, ReconstructionError
 from ..geometry.kdtree import kdtree
+from ..geometry.sort import stable_argsort
 from ..model import Storey
 from ..pointcloud import PointCloud
 from ..progress import Progress
@@ -479,7 +480,7 @@ def extract_planes(cloud: PointCloud, params: PlaneParams = PlaneParams(), *,
                 continue
             q = np.floor((xyz[idx, :2] - xyz[idx, :2].min(axis=0)) / params.tile_size).astype(np.int64)
             key = q[:, 0] * (q[:, 1].max() + 1) + q[:, 1]
-            order = np.argsort(key, kind="stable")
+            order = stable_argsort(key)
             bounds = np.flatnonzero(np.diff(key[order])) + 1
             for part in np.split(order, bounds):
                 jobs.append((si, kind, idx[part]))
