@@ -66,7 +66,7 @@ class UpperBand:
         self._axes = []
         for a in (0, 1):
             sel = np.flatnonzero(along[a] & band)
-            sel = sel[np.argsort(p[sel, a], kind="stable")]
+            sel = sel[np.argsort(p[sel, a])]  # slices of it go into histograms: any order
             self._axes.append((p[sel, a], p[sel, 1 - a]))
 
     def along(self, a: int, w: float) -> np.ndarray:
@@ -144,7 +144,7 @@ def free_wall_ends(p: np.ndarray, along: list, ceiling: np.ndarray, cuts: list, 
         if nb < need:
             continue
         fsel = np.flatnonzero(floor)
-        fsel = fsel[np.argsort(p[fsel, a], kind="stable")]
+        fsel = fsel[np.argsort(p[fsel, a])]  # into histograms: any order of ties
         ft = p[fsel, a]
         floor_xy = p[fsel, :2]
         planes = np.asarray(cuts[a], dtype=np.float64)

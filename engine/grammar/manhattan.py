@@ -321,7 +321,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             dist = np.minimum(np.abs(p[:, o] - other[j - 1]), np.abs(p[:, o] - other[np.minimum(j, len(other) - 1)]))
             off = dist > d
         cand = p[off & ~along[o] & top_band]
-        order = np.argsort(cand[:, a], kind="stable")
+        order = np.argsort(cand[:, a])  # slices of it are counted: any order of ties
         cand = cand[order]
         peaks = [pk.position for pk in raw[a]
                  if _reaches_ceiling(cand, a, pk.position, frame, params, spacing, ceiling_cells, cand[:, a])]
@@ -488,7 +488,7 @@ def _sparse_tops(uv: np.ndarray, FZ: np.ndarray, X: np.ndarray, Y: np.ndarray, p
     cand = np.argwhere((FZ[1] < params.tau) & (FZ[0] > params.min_room_evidence))
     if not len(cand):
         return {}
-    uv = uv[np.argsort(uv[:, 0], kind="stable")]  # one sort: each cuboid slices its x range
+    uv = uv[np.argsort(uv[:, 0])]  # one sort: each cuboid slices its x range (rasters: any order)
     out = {}
     for i, j in cand:
         lo, hi = np.array([X[i], Y[j]]) - 2 * reach, np.array([X[i + 1], Y[j + 1]]) + 2 * reach

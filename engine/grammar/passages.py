@@ -311,7 +311,7 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
         return
     nx, ny, nz = types.shape
     tau, t_max = params.tau, params.max_wall_thickness
-    uv = uv[np.argsort(uv[:, 0], kind="stable")]
+    uv = uv[np.argsort(uv[:, 0])]  # slices of it are counted: any order of ties
 
     def density(x0, x1, y0, y1):
         if x1 <= x0 or y1 <= y0:
