@@ -14,6 +14,8 @@ import numpy as np
 import shapely
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
+from ..threads import thread_cap
+
 __all__ = ["thin_grid", "local_alpha", "adaptive_alpha", "alpha_simplices", "alpha_triangles", "alpha_area",
            "alpha_geometry", "triangle_areas"]
 
@@ -68,7 +70,7 @@ def local_alpha(xy: np.ndarray, r_alpha: float, factor: float, r_max: float, k: 
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     if len(xy) <= k or factor <= 0 or r_max <= r_alpha:
         return np.full(len(xy), float(r_alpha))
-    d, nn = cKDTree(xy).query(xy, k=k + 1)
+    d, nn = cKDTree(xy).query(xy, k=k + 1, workers=thread_cap())
     s = np.median(d[:, 1][nn], axis=1)
     return np.clip(factor * s, r_alpha, r_max)
 

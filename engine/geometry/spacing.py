@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
+from ..threads import thread_cap
 from .kdtree import kdtree, spatial_order
 
 __all__ = ["estimate_spacing"]
@@ -35,7 +36,7 @@ def estimate_spacing(xyz: np.ndarray, sample: int = 20000, radius: float = 0.1, 
     q = q[spatial_order(q, radius)]  # queries in space order: faster, same counts
     r = radius
     for _ in range(4):  # widen the ball until it holds enough neighbours to count on
-        counts = tree.query_ball_point(q, r=r, return_length=True).astype(np.float64)
+        counts = tree.query_ball_point(q, r=r, return_length=True, workers=thread_cap()).astype(np.float64)
         if np.percentile(counts, percentile) >= 8:
             break
         r *= 2

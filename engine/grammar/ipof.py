@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..threads import thread_cap
+
 __all__ = ["grid_face_index", "face_index", "plane_cells"]
 
 
@@ -44,7 +46,7 @@ def local_radii(uv: np.ndarray, spacing: float, max_radius: float, k: int = 4) -
     r = np.full(len(uv), float(spacing))
     if len(uv) <= k or max_radius <= spacing:
         return r
-    d, _ = cKDTree(uv).query(uv, k=k + 1)
+    d, _ = cKDTree(uv).query(uv, k=k + 1, workers=thread_cap())
     s = d[:, -1] * np.sqrt(np.pi / k)
     grow = (s > spacing) & (s <= max_radius)
     r[grow] = s[grow]

@@ -358,10 +358,11 @@ def estimate_noise(xyz: np.ndarray, sample: int = 5000, k: int = 20, rng=0, tree
     if len(xyz) <= k:
         return 0.0
     from ..geometry.kdtree import kdtree
+    from ..threads import thread_cap
 
     tree = kdtree(xyz) if tree is None else tree
     q = xyz if len(xyz) <= sample else xyz[rng.choice(len(xyz), sample, replace=False)]
-    _, idx = tree.query(q, k=k)
+    _, idx = tree.query(q, k=k, workers=thread_cap())
     nb = xyz[idx]  # (m, k, 3)
     c = nb - nb.mean(axis=1, keepdims=True)
     cov = np.matmul(c.transpose(0, 2, 1), c) / k
