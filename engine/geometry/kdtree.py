@@ -16,6 +16,7 @@ from scipy.spatial import cKDTree
 
 from .boxes import column_max, column_min
 from .sort import stable_argsort
+
 __all__ = ["kdtree", "spatial_order"]
 
 
