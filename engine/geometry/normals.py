@@ -7,7 +7,6 @@ check normals and the change detection's normals of ambiguous points.
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 from typing import Optional
 
 import numpy as np
@@ -115,38 +114,21 @@ def smallest_eigenpairs(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return w, n
 
 
-def _each_chunk(xyz: np.ndarray, query: np.ndarray, k: int, radius: float, tree, workers, fn,
-                chunk: int = 100_000) -> None:
-    """``fn(start, indices, nb, ok)`` per chunk of the query points: their (m, k) neighbour
-    indices (0 where none) and (m, k) bool which are neighbours — at most ``k`` within
-    ``radius``. With several threads (``workers``, default :func:`engine.threads.thread_cap`),
-    up to 4 chunks (of ``chunk`` / threads points: the same memory) run at once, each query on
-    its share of the threads: the gathers and products of one chunk overlap another's query
-    (12 % less time on 2 cores than one query on both then the products). ``fn`` writes its
-    own rows only; the results do not depend on the threads."""
+def _neighbour_chunks(xyz: np.ndarray, query: np.ndarray, k: int, radius: float, tree, workers,
+                      chunk: int = 100_000):
+    """Per chunk of the query points: (start, their indices, (m, k) neighbour indices (0 where
+    none), (m, k) bool which are neighbours) — at most ``k`` within ``radius``."""
     tree = kdtree(xyz) if tree is None else tree
     k = int(min(k, len(xyz)))
-    workers = thread_cap() if workers is None else max(1, int(workers))
-    threads = min(workers, 4, max(1, -(-len(query) // 25_000)))
-    size = max(25_000, chunk // threads)
-
-    def one(s):
-        qi = query[s:s + size]
-        d, nb = tree.query(xyz[qi], k=k, distance_upper_bound=radius, workers=max(1, workers // threads))
+    workers = thread_cap() if workers is None else workers
+    for s in range(0, len(query), chunk):
+        qi = query[s:s + chunk]
+        d, nb = tree.query(xyz[qi], k=k, distance_upper_bound=radius, workers=workers)
         d, nb = np.asarray(d).reshape(len(qi), k), np.asarray(nb).reshape(len(qi), k)
         ok = np.isfinite(d)
         nb = np.where(ok, nb, 0)
-        del d  # not held while fn works on the chunk
-        fn(s, qi, nb, ok)
-
-    starts = range(0, len(query), size)
-    if threads > 1 and len(starts) > 1:
-        with ThreadPoolExecutor(threads) as pool:
-            for _ in pool.map(one, starts):  # in order; an error stops the rest
-                pass
-    else:
-        for s in starts:
-            one(s)
+        del d  # not held while the caller works on the chunk
+        yield s, qi, nb, ok
 
 
 def _masked_cov(cols: list, nb: np.ndarray, qi: np.ndarray, keep: np.ndarray):
@@ -188,11 +170,9 @@ def hybrid_covariances(xyz: np.ndarray, query: np.ndarray, k: int, radius: float
         return cov, cnt
     cols = [np.ascontiguousarray(xyz[:, c]) for c in range(3)]
     order = spatial_order(xyz[query], radius)  # queries in space order: a quarter less time
-    def one(s, qi, nb, ok):
+    for s, qi, nb, ok in _neighbour_chunks(xyz, query[order], k, radius, tree, workers):
         at = order[s:s + len(qi)]
         cov[at], cnt[at] = _masked_cov(cols, nb, qi, ok)
-
-    _each_chunk(xyz, query[order], k, radius, tree, workers, one)
     return cov, cnt
 
 
@@ -230,7 +210,7 @@ def one_sided_normals(xyz: np.ndarray, view: np.ndarray, query: np.ndarray, k: i
     # contiguous memory (2x the speed of strided (m, k, 3) slices, the same sums)
     cols = [np.ascontiguousarray(xyz[:, c]) for c in range(3)]
     vcols = [np.ascontiguousarray(view[:, c], dtype=np.float64) for c in range(3)]
-    def one(s, qi, nb, ok):
+    for s, qi, nb, ok in _neighbour_chunks(xyz, query, k, radius, tree, workers):
         dot = vcols[0][nb] * vcols[0][qi, None]
         dot += vcols[1][nb] * vcols[1][qi, None]
         dot += vcols[2][nb] * vcols[2][qi, None]
@@ -239,8 +219,6 @@ def one_sided_normals(xyz: np.ndarray, view: np.ndarray, query: np.ndarray, k: i
         _, n, cnt = _masked_pca(cols, nb, qi, ok)  # neighbours on the other side weigh 0
         n[cnt < min_points] = np.nan
         out[s:s + len(qi)] = n
-
-    _each_chunk(xyz, query, k, radius, tree, workers, one)
     return out
 
 
@@ -302,8 +280,7 @@ def sheet_normals(xyz: np.ndarray, query: np.ndarray, k: int, radius: float, gap
     xyz, query, out, cols = _split_inputs(xyz, query)
     if len(query) == 0 or len(xyz) < 2 * min_points:
         return out
-
-    def one(s, qi, nb, ok):
+    for s, qi, nb, ok in _neighbour_chunks(xyz, query, k, radius, tree, workers):
         dz = np.where(ok, cols[2][nb] - cols[2][qi, None], np.inf)
         best, cut = _largest_gap(dz, ok.sum(axis=1), min_points)
         split = best >= gap
@@ -314,8 +291,6 @@ def sheet_normals(xyz: np.ndarray, query: np.ndarray, k: int, radius: float, gap
                 & (w[:, 0] <= planarity * w[:, 1]) & (w[:, 1] >= min_spread * w[:, 2]))
         n[~good] = np.nan
         out[s:s + len(qi)] = n
-
-    _each_chunk(xyz, query, k, radius, tree, workers, one)
     return out
 
 
@@ -345,8 +320,7 @@ def wall_sheet_normals(xyz: np.ndarray, query: np.ndarray, k: int, radius: float
     if len(query) == 0 or len(xyz) < 2 * min_points:
         return out
     angles = np.arange(directions) * (math.pi / directions)
-
-    def one(s, qi, nb, ok):
+    for s, qi, nb, ok in _neighbour_chunks(xyz, query, k, radius, tree, workers):
         m = len(qi)
         cnt = ok.sum(axis=1)
         dx = np.where(ok, cols[0][nb] - cols[0][qi, None], 0.0)
@@ -369,6 +343,4 @@ def wall_sheet_normals(xyz: np.ndarray, query: np.ndarray, k: int, radius: float
                 & (w[:, 0] <= planarity * w[:, 1]) & (w[:, 1] >= min_spread * w[:, 2]))
         n[~good] = np.nan
         out[s:s + m] = n
-
-    _each_chunk(xyz, query, k, radius, tree, workers, one)
     return out
