@@ -435,3 +435,18 @@ def test_roof_planes_from_noisy_undersides(seed):
         best = max(fits, key=lambda f: abs(float(np.dot(f.plane.normal, p.normal))))
         assert abs(float(np.dot(best.plane.normal, p.normal))) >= np.cos(np.radians(1.0))
         assert abs(float(best.plane.z(5.0, 4.0) - p.z(5.0, 4.0))) <= 0.01
+
+
+@pytest.mark.parametrize("high", [1, 7, 40_000, 2 ** 40, 2 ** 62])
+def test_stable_argsort_is_numpys_stable_argsort(high):
+    """Grid keys (many ties) sort to numpy's stable permutation by the composite key; keys too
+    large for it (and negative ones) fall back to the stable sort itself."""
+    from engine.geometry.sort import stable_argsort
+
+    rng = np.random.default_rng(high % 97)
+    for n in (0, 1, 2, 1000, 50_000):
+        keys = rng.integers(0, high, n, dtype=np.int64)
+        assert np.array_equal(stable_argsort(keys), np.argsort(keys, kind="stable"))
+        assert np.array_equal(stable_argsort(keys.astype(np.uint64)), np.argsort(keys, kind="stable"))
+    neg = rng.integers(-5, 5, 1000)
+    assert np.array_equal(stable_argsort(neg), np.argsort(neg, kind="stable"))

@@ -203,6 +203,22 @@ def test_point_on_face_index_is_covered_share():
     assert 0.55 <= v <= 1.0
 
 
+def test_point_on_face_index_discs_stay_in_their_own_rectangle():
+    """A disc covers its own rectangle alone, also across a rectangle narrower than its
+    radius (each rectangle is dilated apart from the others: the rasters of two rectangles
+    of one parity, dilated together, used to let a disc reach over a 2 cm one)."""
+    sigma = 0.05
+    for width in (0.02, 0.2):
+        uv = np.column_stack([np.full(101, 0.99), np.linspace(0.0, 1.0, 101)])  # 1 cm from its edge
+        got = grid_face_index(uv, np.array([0.0, 1.0, 1.0 + width, 2.0]), np.array([0.0, 1.0]), sigma)[:, 0]
+        assert got[0] > 0.05 and got[1] == 0.0 and got[2] == 0.0, (width, got)
+    # the same points on either side of a 2 cm rectangle: each side its own coverage
+    two = np.vstack([uv, uv + [0.04, 0.0]])  # at 0.99 and 1.03
+    got = grid_face_index(two, np.array([0.0, 1.0, 1.02, 2.0]), np.array([0.0, 1.0]), sigma)[:, 0]
+    alone = grid_face_index(uv + [0.04, 0.0], np.array([0.0, 1.0, 1.02, 2.0]), np.array([0.0, 1.0]), sigma)
+    assert got[1] == 0.0 and got[2] == pytest.approx(alone[2, 0], abs=1e-12) and got[2] > 0.03
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_point_on_face_index_follows_local_spacing(seed):
     """A ceiling seen sparsely from far away (points 2.5 σ apart, evenly) is seen with the
