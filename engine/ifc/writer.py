@@ -1,4 +1,4 @@
-"""BuildingModel → IFC4 (or IFC4X3), written with ``ifcopenshell.api`` and in bulk.
+"""BuildingModel → IFC4 (or IFC4X3), written with ifcopenshell and in bulk.
 
 The file follows the "simple model from scratch" recipe of IfcOpenShell: project, SI units,
 representation contexts (Model/Body, Model/Axis, Model/FootPrint), then the spatial tree
@@ -44,6 +44,11 @@ and the ``SOURCE_DATE_EPOCH`` environment variable fixes the time stamps. The sa
 therefore gives the same file byte for byte, apart from the header time stamp when that
 variable is not set. Text from the model (names, file names) with undecodable bytes is
 written with backslash escapes.
+
+Units, contexts, styles and element types go through ``ifcopenshell.api``; products,
+relationships, property and quantity sets (:mod:`engine.ifc.properties`) and space boundaries
+are created directly, the same entities without the api's generic machinery (its property
+sets load buildingSMART's templates, 50 ms a file): 0.46 → 0.25 s for a 100k-point office.
 """
 from __future__ import annotations
 
