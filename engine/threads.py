@@ -10,13 +10,17 @@ usual environment variables, unless the user set them, before NumPy or Open3D lo
 eigenproblems, products of (n, 3) arrays that memory bounds), and OpenBLAS's idle workers
 spin between calls: two of them burnt 1.4 s of the 8 CPU seconds of a 1M-point office
 convert, for no gain in time on a quiet machine and 20 % more wall time when another program
-used a core. Inside Blender NumPy is already loaded and Blender's own settings apply.
+used a core. Inside Blender NumPy is loaded before the engine, so the variables come too late
+for it: :func:`cap_loaded_blas` then sets the OpenBLAS libraries already loaded to one thread
+through their own ``openblas_set_num_threads`` (Linux; unless the user set
+``OPENBLAS_NUM_THREADS``).
 """
 from __future__ import annotations
 
 import os
 
-__all__ = ["available_cores", "thread_cap", "apply_thread_env", "THREAD_VARIABLES", "BLAS_VARIABLES"]
+__all__ = ["available_cores", "thread_cap", "apply_thread_env", "cap_loaded_blas", "loaded_blas_threads",
+           "THREAD_VARIABLES", "BLAS_VARIABLES"]
 
 BLAS_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")
 """Environment variables NumPy's BLAS reads at load time (one thread by default)."""
@@ -44,7 +48,57 @@ def thread_cap() -> int:
 def apply_thread_env() -> int:
     """Set each of :data:`THREAD_VARIABLES` the user left unset: the BLAS pools to 1 thread,
     the others to :func:`thread_cap`; returns the cap."""
+    import sys
+
     n = thread_cap()
+    user_blas = "OPENBLAS_NUM_THREADS" in os.environ
     for k in THREAD_VARIABLES:
         os.environ.setdefault(k, "1" if k in BLAS_VARIABLES else str(n))
+    if "numpy" in sys.modules and not user_blas:  # loaded first (Blender): too late for the variables
+        cap_loaded_blas(1)
     return n
+
+
+_SET = ("openblas_set_num_threads64_", "openblas_set_num_threads")
+_GET = ("openblas_get_num_threads64_", "openblas_get_num_threads")
+
+
+def _loaded_openblas() -> list:
+    """The OpenBLAS libraries loaded in this process (ctypes handles; Linux: /proc/self/maps)."""
+    import ctypes
+
+    try:
+        with open("/proc/self/maps") as f:
+            paths = sorted({line.split()[-1] for line in f
+                            if "openblas" in line.lower() and line.rstrip().split()[-1].startswith("/")})
+    except OSError:
+        return []
+    libs = []
+    for path in paths:
+        try:
+            libs.append(ctypes.CDLL(path))
+        except OSError:
+            continue
+    return libs
+
+
+def cap_loaded_blas(threads: int = 1) -> int:
+    """Set every OpenBLAS library already loaded to ``threads`` threads; returns how many were
+    set (0 where none is loaded or the platform does not say: not Linux)."""
+    done = 0
+    for lib in _loaded_openblas():
+        fn = next((getattr(lib, name) for name in _SET if hasattr(lib, name)), None)
+        if fn is not None:
+            fn(int(threads))
+            done += 1
+    return done
+
+
+def loaded_blas_threads() -> list:
+    """The thread count of every OpenBLAS library loaded (Linux), for checks."""
+    out = []
+    for lib in _loaded_openblas():
+        fn = next((getattr(lib, name) for name in _GET if hasattr(lib, name)), None)
+        if fn is not None:
+            out.append(int(fn()))
+    return out

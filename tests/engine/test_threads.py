@@ -56,3 +56,27 @@ def test_thread_cap_ignores_nonsense(monkeypatch):
     assert thread_cap() == available_cores()
     monkeypatch.setenv("INDOOR_THREADS", "5")
     assert thread_cap() == 5
+
+
+def test_blas_loaded_before_the_engine_is_capped_at_runtime():
+    """Inside Blender NumPy (and its OpenBLAS) loads before the engine, too late for the
+    variables: importing the engine sets the loaded library to one thread, unless the user
+    set OPENBLAS_NUM_THREADS (Linux)."""
+    if not os.path.isdir("/proc/self/task") or available_cores() < 2:
+        pytest.skip("needs Linux and 2 cores (OpenBLAS starts one thread per core)")
+    code = ("import numpy, json; from importlib import util; "
+            "spec = util.spec_from_file_location('t', {path!r}); t = util.module_from_spec(spec); "
+            "spec.loader.exec_module(t); before = t.loaded_blas_threads(); import engine; "
+            "print(json.dumps([before, t.loaded_blas_threads()]))").format(
+        path=os.path.join(ROOT, "engine", "threads.py"))
+    import json
+
+    def run(**extra):
+        out = subprocess.run([sys.executable, "-c", code], env=_clean_env(**extra), cwd=ROOT,
+                             capture_output=True, text=True, check=True)
+        return json.loads(out.stdout)
+
+    before, after = run()
+    assert before and min(before) >= 2 and set(after) == {1}
+    before, after = run(OPENBLAS_NUM_THREADS="2")  # the user's: left alone
+    assert set(before) == set(after) == {2}
