@@ -3,7 +3,7 @@
 The entities are those ``ifcopenshell.api.pset``'s ``add_pset`` + ``edit_pset`` (and
 ``add_qto`` + ``edit_qto``) make for a new set on an object: an ``IfcPropertySet`` of
 ``IfcPropertySingleValue`` (an ``IfcElementQuantity`` of ``IfcQuantityLength`` / ``Area`` /
-``Volume`` / ``Count``) and the ``IfcRelDefinesByProperties`` that gives it to the object.
+``Volume``) and the ``IfcRelDefinesByProperties`` that gives it to the object.
 The api looks every set's name up in buildingSMART's templates, whose first use loads them
 from a file (50 ms a convert, more than the hundred sets it then writes), and goes through its
 generic machinery per call (0.9 ms a set); a model's sets are written here in a twentieth of
