@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import json
 import importlib.util
 import logging
 import os
@@ -177,7 +178,8 @@ def convert_one(pkg, scan, args, name, params=None):
         bpy.data.objects.remove(obj, do_unlink=True)
     frame = result.model.provenance.parameters.get("frame") or {}  # found once, by the engine
     res = bpy.ops.indoor.import_scan(filepath=os.path.abspath(scan), units=frame.get("units", args.units),
-                                     up_axis=frame.get("up", args.up))
+                                     up_axis=frame.get("up", args.up),
+                                     frame_record=json.dumps(frame, default=str) if frame else "")
     if res != {"FINISHED"}:
         raise RuntimeError("import into Blender failed")
     bridge = importlib.import_module(PACKAGE + ".blender_indoor_addon.bridge")

@@ -1,5 +1,4 @@
-"""The frame of a scan before preprocessing: its units, its up axis, and clouds that hold
-no building at all.
+"""The frame of a scan before preprocessing: its units, its up axis, and clouds that hold no building.
 
 Everything runs on a sample of about ``FrameParams.sample_points`` points — a random
 pre-sample thinned on a voxel grid, so it is spatially even (a mobile scanner's dense
@@ -86,7 +85,7 @@ from .checks import (FrameParams, FrameSample, area_weights, check_degenerate, c
                      frame_sample, planar_mask, robust_extent, sample_indices, source_name)
 
 __all__ = ["FrameParams", "UnitGuess", "UpGuess", "UNITS", "UP_AXES", "up_rotation", "detect_units",
-           "detect_up", "check_degenerate", "normalize_frame"]
+           "detect_up", "check_degenerate", "normalize_frame", "apply_frame"]
 
 log = logging.getLogger(__name__)
 
@@ -782,7 +781,7 @@ def normalize_frame(cloud: PointCloud, units: str = "auto", up: str = "auto",
     record = {"units": unit, "scale": scale, "up": up_name, "rotation": rot.tolist(),
               "evidence": {"units": u_ev, "up": up_ev}, "units_confidence": u_conf, "up_confidence": up_conf,
               "warnings": notes}
-    out = _apply(cloud, rot, scale)
+    out = apply_frame(cloud, rot, scale)
     if notes:
         kept = out.warnings
         if unit != "m":  # the reader's "looks like millimetres" note is answered by the rescale
@@ -791,7 +790,8 @@ def normalize_frame(cloud: PointCloud, units: str = "auto", up: str = "auto",
     return out, record
 
 
-def _apply(cloud: PointCloud, rot: np.ndarray, scale: float) -> PointCloud:
+def apply_frame(cloud: PointCloud, rot: np.ndarray, scale: float) -> PointCloud:
+    """``cloud`` turned by ``rot`` (3, 3), scaled by ``scale`` (as :func:`normalize_frame` does)."""
     if scale == 1.0 and np.array_equal(rot, np.eye(3)):
         return cloud
     m = scale * rot

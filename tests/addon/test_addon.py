@@ -402,3 +402,36 @@ def test_import_of_a_bad_count_and_a_bug_are_one_line_reports(scene, tmp_path, m
     msg = str(e.value)
     assert "internal error: ZeroDivisionError" in msg and "Traceback" not in msg
     assert bu.scene_state() == before
+
+
+def test_import_with_the_engines_frame_record_applies_it_without_checks(scene, tmp_path, rng):
+    """scripts/batch.py passes the engine's frame record of the file it converted: the import
+    applies that scale and rotation (the same points as detecting them) and skips the checks;
+    a malformed record is a report and leaves the scene as it was."""
+    u = rng.uniform(0, 1, (400, 2))  # a room's six faces, 5 x 3 x 4 m in millimetres, y up
+    face = np.arange(400) % 6
+    size = np.array([5000.0, 3000.0, 4000.0])
+    xyz = np.zeros((400, 3))
+    for k in range(6):
+        a, (b, c) = k // 2, [d for d in range(3) if d != k // 2]
+        m = face == k
+        xyz[m, a] = size[a] * (k % 2)
+        xyz[m, b], xyz[m, c] = u[m, 0] * size[b], u[m, 1] * size[c]
+    path = str(tmp_path / "mm.ply")
+    bu.write_binary_ply(path, xyz)
+    assert bpy.ops.indoor.import_scan(filepath=path, units="mm", up_axis="y") == {"FINISHED"}
+    first = bpy.context.view_layer.objects.active
+    record = first["indoor_frame"]
+    assert bpy.ops.indoor.import_scan(filepath=path, frame_record=record) == {"FINISHED"}
+    second = bpy.context.view_layer.objects.active
+    assert second != first and second["indoor_frame"] == record
+    a, b = (np.empty(400 * 3, np.float32) for _ in range(2))
+    first.data.vertices.foreach_get("co", a)
+    second.data.vertices.foreach_get("co", b)
+    np.testing.assert_array_equal(a, b)
+    assert np.ptp(b.reshape(-1, 3)[:, 2]) < 5.1 and np.ptp(b.reshape(-1, 3)[:, 1]) < 5.1  # metres, z up
+    before = bu.scene_state()
+    with pytest.raises(RuntimeError) as info:
+        bpy.ops.indoor.import_scan(filepath=path, frame_record="{not json")
+    assert "mm.ply" in str(info.value) and "Traceback" not in str(info.value)
+    assert bu.scene_state() == before
