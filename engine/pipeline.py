@@ -276,7 +276,7 @@ def align(prep: Prepared, *, rng=0, cloud: Optional[PointCloud] = None) -> Prepa
         return prep
     t0 = time.perf_counter()
     _, transform, res = align_manhattan(prep.working if cloud is None else cloud, prep.params.align, rng=rng,
-                                        normal_params=prep.params.normals, return_result=True)
+                                        normal_params=prep.params.normals, return_result=True, apply=False)
     return replace(prep, cloud=prep.cloud if cloud is None else cloud, transform=transform, alignment=res,
                    timings={**prep.timings, "align": time.perf_counter() - t0})
 

@@ -156,7 +156,7 @@ def _yaw(n: np.ndarray, up: np.ndarray, params: AlignParams):
 
 def align_manhattan(cloud: PointCloud, params: AlignParams = AlignParams(), *, rng=0,
                     normal_params: NormalParams = NormalParams(), yaw: bool = True,
-                    return_result: bool = False, progress=None, should_stop=None):
+                    return_result: bool = False, progress=None, should_stop=None, apply: bool = True):
     """Rotate the cloud so its dominant directions are the x, y, z axes.
 
     Parameters
@@ -172,10 +172,13 @@ def align_manhattan(cloud: PointCloud, params: AlignParams = AlignParams(), *, r
     return_result : bool
         Also return the :class:`AlignmentResult`.
     progress, should_stop : callables, see :class:`engine.progress.Progress`.
+    apply : bool
+        False: the transform alone (``aligned`` is None; a caller that rotates another cloud
+        by it spares rotating this one: 0.05–0.09 s for 1M points with normals).
 
     Returns
     -------
-    aligned : PointCloud
+    aligned : PointCloud or None
         Points, normals and scanner positions rotated (a pure rotation about the origin).
     transform : (4, 4) float64
         Aligned → input frame (``p_input = transform @ p_aligned``); store it as
@@ -232,7 +235,7 @@ def align_manhattan(cloud: PointCloud, params: AlignParams = AlignParams(), *, r
                     "the building may not be Manhattan", name, 100 * frac)
     m = np.eye(4)
     m[:3, :3] = rot
-    aligned = cloud.transformed(m)
+    aligned = cloud.transformed(m) if apply else None
     p(1.0, "aligned")
     back = np.eye(4)
     back[:3, :3] = rot.T

@@ -64,6 +64,9 @@ def test_alignment_of_synthetic_office_within_half_degree():
     yaw_err, tilt_err = _yaw_error_deg(rot, back)
     assert yaw_err < 0.5
     assert tilt_err < 0.5
+    # the transform alone (the pipeline rotates the full cloud itself): the same transform
+    none, back2 = align_manhattan(w, rng=2, apply=False)
+    assert none is None and np.array_equal(back2, back)
 
 
 def test_room_scan_alignment_levels_floor_and_axis_aligns_walls():
