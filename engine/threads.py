@@ -82,23 +82,25 @@ def _loaded_openblas() -> list:
     return libs
 
 
+def _blas_calls(names: tuple) -> list:
+    """The first of ``names`` each loaded OpenBLAS library exports (ctypes functions)."""
+    out = []
+    for lib in _loaded_openblas():
+        fn = next((getattr(lib, name) for name in names if hasattr(lib, name)), None)
+        if fn is not None:
+            out.append(fn)
+    return out
+
+
 def cap_loaded_blas(threads: int = 1) -> int:
     """Set every OpenBLAS library already loaded to ``threads`` threads; returns how many were
     set (0 where none is loaded or the platform does not say: not Linux)."""
-    done = 0
-    for lib in _loaded_openblas():
-        fn = next((getattr(lib, name) for name in _SET if hasattr(lib, name)), None)
-        if fn is not None:
-            fn(int(threads))
-            done += 1
-    return done
+    calls = _blas_calls(_SET)
+    for fn in calls:
+        fn(int(threads))
+    return len(calls)
 
 
 def loaded_blas_threads() -> list:
     """The thread count of every OpenBLAS library loaded (Linux), for checks."""
-    out = []
-    for lib in _loaded_openblas():
-        fn = next((getattr(lib, name) for name in _GET if hasattr(lib, name)), None)
-        if fn is not None:
-            out.append(int(fn()))
-    return out
+    return [int(fn()) for fn in _blas_calls(_GET)]

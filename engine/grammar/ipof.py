@@ -112,13 +112,13 @@ def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, sp
         mu = np.where(du <= thin, np.minimum(du / 3, np.maximum(thin_margin, mu)), mu)
         mv = np.where(dv <= thin, np.minimum(dv / 3, np.maximum(thin_margin, mv)), mv)
 
-    def cell_owner(edges, n, origin, m):
+    def cell_owner(edges, n, origin, m):  # (the owner or -1, the rectangle the centre lies in)
         c = origin + (np.arange(n) + 0.5) * h
         i = np.clip(np.searchsorted(edges, c, side="right") - 1, 0, len(edges) - 2)
         ok = (c >= edges[i] + m[i]) & (c <= edges[i + 1] - m[i]) & (c >= edges[0]) & (c <= edges[-1])
-        return np.where(ok, i, -1)
+        return np.where(ok, i, -1), i
 
-    ou, ov = cell_owner(u_edges, nu, u0, mu), cell_owner(v_edges, nv, v0, mv)
+    (ou, ru), (ov, rv) = cell_owner(u_edges, nu, u0, mu), cell_owner(v_edges, nv, v0, mv)
     iu = np.floor((uv[:, 0] - u0) / h).astype(np.int64)
     iv = np.floor((uv[:, 1] - v0) / h).astype(np.int64)
     ok = (iu >= 0) & (iu < nu) & (iv >= 0) & (iv < nv)
@@ -147,13 +147,10 @@ def grid_face_index(uv: np.ndarray, u_edges: np.ndarray, v_edges: np.ndarray, sp
     else:
         cls = np.zeros(len(iu), dtype=np.int64)
     # discs must not spill into a neighbouring rectangle: every rectangle is dilated on its
-    # own, in one pass over a raster with k empty rows and columns between rectangles (each
+    # own, in one pass over a raster with 2 k empty rows and columns between rectangles (each
     # raster row and column moves 2 k per rectangle boundary before it; a point to its own
     # rectangle's side, even when its raster cell lies just across the edge)
-    k_max = int(np.ceil(levels[-1] / h))
-    gap = 2 * k_max
-    ru = np.clip(np.searchsorted(u_edges, u0 + (np.arange(nu) + 0.5) * h, side="right") - 1, 0, a - 1)
-    rv = np.clip(np.searchsorted(v_edges, v0 + (np.arange(nv) + 0.5) * h, side="right") - 1, 0, b - 1)
+    gap = 2 * int(np.ceil(levels[-1] / h))
     shape = (nu + gap * a, nv + gap * b)
     cover = np.zeros(shape, dtype=bool)
     piu, piv = iu + gap * pu, iv + gap * pv
