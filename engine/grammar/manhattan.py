@@ -29,7 +29,9 @@ Departures from the thesis (docs/method.md §2):
   connected group of occupied cells (area, not a point percentile: the far end of a
   scan is sparse), and the grid ends there at the outermost weakly seen wall surface
   (≥ ``min_bound_wall_area``) reaching the ceiling height within ``max_wall_thickness``
-  of that edge (:func:`_closing_wall`: a far end wall seen only in patches).
+  of that edge (:func:`.extent.closing_wall`: a far end wall seen only in patches); in an
+  attic, the outermost wall whose top meets the roof planes (:func:`.roof.meets_roof`:
+  a knee wall).
 * Z cuts: the floor and every *ceiling level* of the storey (a level with nothing above
   it), so rooms get their own ceiling heights; desks and shelves (surfaces with something
   above and below) make no cut.
@@ -66,7 +68,8 @@ from .params import ManhattanParams, estimate_noise, params_from_data
 from .passages import doorway_tops, enclosed_pockets, furniture_strips, wide_passages
 from .place import (StoreyFrame, detect_levels, given_frame, histogram_peaks, paired_faces, storey_chunks,
                     storey_frame)
-from .roof import roof_planes, slope_spaces
+from .extent import FAR_POINTS, cell_lookup, closing_wall, scan_lines, seen_extent
+from .roof import meets_roof, roof_planes, slope_spaces
 from .rules import classify, derive_topology, reject_implausible_spaces
 
 __all__ = ["manhattan_model", "reconstruct_manhattan", "reconstruct_grammar", "place_storey"]
@@ -78,10 +81,6 @@ log = logging.getLogger(__name__)
 _SORT_PLANES = 24
 """IPoF of the faces on more planes than this along one axis: the points are sorted along it
 once and each plane's slab taken by bisection; fewer: each slab is a scan of the points."""
-_FAR_POINTS = 200
-"""The largest gap between the outermost this many ceiling points along an axis is the
-step between its scan lines at its far end (how much farther beyond its last point than
-a wall's thickness a weak wall may close it)."""
 
 def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyFrame,
                      params: ManhattanParams, spacing: float, ceiling_cells=None, sorted_t=None) -> bool:
@@ -149,62 +148,8 @@ def _or_void(cells, xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, pa
     c = params.level_cell
     if len(np.unique(np.floor(upper / c).astype(np.int64), axis=0)) * c * c < params.min_space_area:
         return cells  # no storey above (a top storey, an attic under its roof): no void
-    above, floor = _cell_lookup(xyz[band, :2], c), _cell_lookup(upper, c)
+    above, floor = cell_lookup(xyz[band, :2], c), cell_lookup(upper, c)
     return lambda k: cells(k) | (above(k) & ~floor(k))
-
-
-def _seen_extent(xy: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
-    """Seen extent of the main ceiling along x and y, metres: (lo (2,), hi (2,)).
-
-    ``xy`` : (n, 2) float64 horizontal coordinates of the ceiling's points, metres. The
-    points are binned into ``cell`` × ``cell`` cells (``level_cell``); the largest
-    8-connected group of occupied cells is the ceiling (stray patches seen through
-    windows are not, so no percentile is needed), and the outer edges of its outermost
-    cells along each axis give the extent. Cells, not points: a terrestrial scan
-    is far denser near the scanner, so a point percentile would cut off the sparsely seen
-    far end of a ceiling.
-    """
-    from scipy import ndimage
-
-    c = np.floor(xy / cell).astype(np.int64)
-    c0 = c.min(axis=0)
-    c -= c0
-    grid = np.zeros(tuple(c.max(axis=0) + 1), dtype=bool)
-    grid[c[:, 0], c[:, 1]] = True
-    lab, n = ndimage.label(grid, structure=np.ones((3, 3), dtype=bool))
-    if n > 1:
-        sizes = np.bincount(lab.ravel())[1:]
-        grid = lab == (int(np.argmax(sizes)) + 1)
-    idx = np.argwhere(grid) + c0
-    return idx.min(axis=0) * cell, (idx.max(axis=0) + 1) * cell
-
-
-def _scan_lines(r: np.ndarray, gap: float) -> float:
-    """How far a ceiling's points run on beyond its seen extent: ``r`` (ascending) their
-    distances beyond its edge, followed while each step is at most ``gap`` or three times
-    the largest step before it (scan lines part gradually with range); the first larger jump
-    leaves the ceiling (FZK-Haus mobile at 1M points without positions: the top of a
-    site wall 10 m beyond the roof's eaves, at the ridge's height, took the attic there)."""
-    if len(r) == 0:
-        return 0.0
-    g = np.diff(np.r_[0.0, r])
-    allowed = np.maximum(gap, 3.0 * np.maximum.accumulate(np.r_[0.0, g[:-1]]))
-    bad = np.nonzero(g > allowed)[0]
-    if len(bad) == 0:
-        return float(r[-1])
-    return float(r[bad[0] - 1]) if bad[0] > 0 else 0.0
-
-
-def _closing_wall(edge: float, side: int, weak, reach: float) -> float:
-    """Where the grid ends beyond the last wall: the outermost sparsely seen wall surface
-    (``weak``: positions, metres, of surfaces holding at least ``min_bound_wall_area`` and
-    reaching a ceiling) within ``reach`` of the ceiling's seen ``edge`` (a far end wall seen
-    only in patches, behind furniture), else the edge itself. ``side`` −1: low end, +1: high end.
-    """
-    near = [w for w in (weak or ()) if abs(w - edge) <= reach]
-    if not near:
-        return float(edge)
-    return float(max(near) if side > 0 else min(near))
 
 
 def _ceiling_mask(p: np.ndarray, hor: np.ndarray, level: float, frame: StoreyFrame,
@@ -239,29 +184,9 @@ def _ceiling_mask(p: np.ndarray, hor: np.ndarray, level: float, frame: StoreyFra
     return m
 
 
-def _cell_lookup(xy: np.ndarray, cell: float):
-    """A membership test for the level_cell cells holding ``xy`` (n, 2) metres:
-    returns f(k) → bool for (m, 2) int cell indices."""
-    if len(xy) == 0:
-        return lambda k: np.zeros(len(k), dtype=bool)
-    c = np.floor(xy / cell).astype(np.int64)
-    lo = c.min(axis=0) - 1
-    shape = c.max(axis=0) - lo + 2
-    grid = np.zeros(tuple(shape), dtype=bool)
-    grid[c[:, 0] - lo[0], c[:, 1] - lo[1]] = True
-
-    def f(k):
-        i = k - lo
-        ok = (i[:, 0] >= 0) & (i[:, 0] < shape[0]) & (i[:, 1] >= 0) & (i[:, 1] < shape[1])
-        out = np.zeros(len(k), dtype=bool)
-        out[ok] = grid[i[ok, 0], i[ok, 1]]
-        return out
-
-    return f
-
-
 def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, storey: int,
-                 params: ManhattanParams, spacing: float, oriented: bool = False) -> list[Shape]:
+                 params: ManhattanParams, spacing: float, oriented: bool = False,
+                 roof: Optional[list] = None) -> list[Shape]:
     """Place, compute the point-on-face indices, and classify the cuboids of one storey.
 
     Parameters
@@ -273,6 +198,8 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     oriented : the normals face their scanners. A wall's second face seen over little of its
         area still makes a cut (:func:`.place.paired_faces`), told from the sides its normals
         face, or without orientation from the side it is open to.
+    roof : the roof planes of an attic storey (:func:`.roof.roof_planes`), or None; a knee wall the roof
+        comes down onto closes the grid like a wall reaching the ceiling (:func:`.roof.meets_roof`).
 
     Returns the classified parts (cuboids), not yet merged.
     """
@@ -286,7 +213,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     # place: peaks of x (points facing x) and y (points facing y) → intervals
     hor = along[2]
     on_ceiling = [_ceiling_mask(p, hor, c, frame, params) for c in frame.ceilings]
-    ceiling_cells = [_cell_lookup(p[m][:, :2], params.level_cell) for m in on_ceiling]
+    ceiling_cells = [cell_lookup(p[m][:, :2], params.level_cell) for m in on_ceiling]
     ceiling_cells[-1] = _or_void(ceiling_cells[-1], xyz, normals, frame, params)
     low = {}  # (axis, least area) -> the peaks of the points facing that axis: each histogram once
 
@@ -336,7 +263,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                 continue
             if first:
                 if not extents:
-                    extents["lo"], extents["hi"] = _seen_extent(p[sel, :2], params.level_cell)
+                    extents["lo"], extents["hi"] = seen_extent(p[sel, :2], params.level_cell)
                 lo_e, hi_e = float(extents["lo"][a]), float(extents["hi"][a])
             else:
                 lo_e, hi_e = np.percentile(p[sel, a], [params.extent_percentile, 100 - params.extent_percentile])
@@ -344,8 +271,8 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                 weak = [pk.position for pk in peaks_of(a, params.min_bound_wall_area)
                         if _reaches_ceiling(cand, a, pk.position, frame, params, spacing, None, cand[:, a])]
             t_max = params.max_wall_thickness
-            lo_w = _closing_wall(lo_e, -1, weak, t_max)
-            hi_w = _closing_wall(hi_e, +1, weak, t_max)
+            lo_w = closing_wall(lo_e, -1, weak, t_max)
+            hi_w = closing_wall(hi_e, +1, weak, t_max)
             if first and (lo_w == lo_e or hi_w == hi_e):
                 # far from a single scanner the ceiling's scan lines lie further apart
                 # than a cell, so its connected extent stops short: its points across the
@@ -354,17 +281,24 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                 # the largest gap among its outermost points, at most another thickness)
                 o0, o1 = float(extents["lo"][o]), float(extents["hi"][o])
                 q = np.sort(p[sel][(p[sel, o] >= o0) & (p[sel, o] <= o1), a])
-                q = q[(q >= lo_e - _scan_lines(lo_e - q[q < lo_e][::-1], t_max))
-                      & (q <= hi_e + _scan_lines(q[q > hi_e] - hi_e, t_max))]
-                k = min(_FAR_POINTS, len(q))
+                q = q[(q >= lo_e - scan_lines(lo_e - q[q < lo_e][::-1], t_max))
+                      & (q <= hi_e + scan_lines(q[q > hi_e] - hi_e, t_max))]
+                k = min(FAR_POINTS, len(q))
                 if lo_w == lo_e and q[0] < lo_e - t_max:
                     step = min(float(np.diff(q[:k]).max(initial=0.0)), t_max)
-                    w = _closing_wall(float(q[0]), -1, weak, t_max + step)
+                    w = closing_wall(float(q[0]), -1, weak, t_max + step)
                     lo_w = w if w != float(q[0]) else lo_e
                 if hi_w == hi_e and q[-1] > hi_e + t_max:
                     step = min(float(np.diff(q[-k:]).max(initial=0.0)), t_max)
-                    w = _closing_wall(float(q[-1]), +1, weak, t_max + step)
+                    w = closing_wall(float(q[-1]), +1, weak, t_max + step)
                     hi_w = w if w != float(q[-1]) else hi_e
+                lo_e, hi_e = min(lo_e, lo_w), max(hi_e, hi_w)
+            if first and roof:  # an attic: the outermost knee walls the roof comes down onto
+                knee = [pk.position for pk in peaks_of(a, params.min_bound_wall_area) if meets_roof(
+                    p[along[a]], roof, a, pk.position, half_width=max(1.5 * params.bin_size, d / 2),
+                    reach=t_max, band=params.wall_top_band, cell=params.level_cell,
+                    min_length=params.min_wall_top_length)]
+                lo_w, hi_w = min([lo_w] + knee), max([hi_w] + knee)
                 lo_e, hi_e = min(lo_e, lo_w), max(hi_e, hi_w)
             if not peaks or lo_e < peaks[0] - t_max:
                 peaks.insert(0, lo_w)
@@ -527,8 +461,8 @@ def _open_voids(shapes: dict, types: np.ndarray, xyz: np.ndarray, normals: np.nd
     cell = params.level_cell
     hor = np.abs(normals[:, 2]) >= np.cos(params.normal_angle)
     upper_floor = band & hor & (xyz[:, 2] <= top + params.void_floor_band)
-    above_cells = _cell_lookup(xyz[band, :2], cell)
-    floor_cells = _cell_lookup(xyz[upper_floor, :2], cell)
+    above_cells = cell_lookup(xyz[band, :2], cell)
+    floor_cells = cell_lookup(xyz[upper_floor, :2], cell)
     open_up = set()
     for (i, j) in cand:
         b = shapes[(i, j, k)].bounds
@@ -642,7 +576,8 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
             sloped.append(si)
             roofs[si] = roof_planes(xyz[under], normals[under], spacing=spacing, buffer=params.shape_buffer,
                                     min_roof_area=params.min_roof_area)
-        parts.extend(place_storey(sx, sn, fr, si, params, spacing, oriented=oriented))
+        parts.extend(place_storey(sx, sn, fr, si, params, spacing, oriented=oriented,
+                                  roof=roofs.get(si)))
         elev = float((T @ np.array([0.0, 0.0, fr.floor, 1.0]))[2] + cloud.offset[2])
         model_storeys.append(Storey(si, fr.floor, fr.ceiling, f"Storey {si}", elev))
     timings["place_classify"] = time.perf_counter() - t2
@@ -703,7 +638,7 @@ def _with_sloped_ceiling(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFram
     low = (xyz[:, 2] > frame.floor + params.sloped_min_height) & (xyz[:, 2] <= top + d)
     under = np.flatnonzero(low & (nz >= params.sloped_normal_min) & (nz < cos_t))  # down to the eaves
     cell = params.level_cell  # only over the storey's floor (not the roof seen from outside)
-    on_floor = _cell_lookup(xyz[(np.abs(xyz[:, 2] - frame.floor) <= d) & (nz >= cos_t), :2], cell)
+    on_floor = cell_lookup(xyz[(np.abs(xyz[:, 2] - frame.floor) <= d) & (nz >= cos_t), :2], cell)
     under = under[on_floor(np.floor(xyz[under, :2] / cell).astype(np.int64))]
     q = xyz[under].copy()
     q[:, 2] = top

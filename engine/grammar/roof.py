@@ -20,7 +20,7 @@ from shapely.geometry import Polygon
 from ..geometry.sloped import RoofPlane, sloped_prism
 from ..model import BuildingModel, ShapeType
 
-__all__ = ["RoofFit", "roof_planes", "slope_spaces"]
+__all__ = ["RoofFit", "meets_roof", "roof_planes", "slope_spaces"]
 
 log = logging.getLogger(__name__)
 
@@ -127,3 +127,33 @@ def slope_spaces(model: BuildingModel, storey: int, fits: list, *, spacing: floa
         log.info("storey %d: %d room(s) under %d roof plane(s) follow the roof", storey, len(new), len(fits))
         model = model.with_(shapes=tuple(new.get(s.id, s) for s in model.shapes))
     return model
+
+
+
+def meets_roof(wall: np.ndarray, fits: list, axis: int, position: float, *, half_width: float,
+               reach: float, band: float, cell: float, min_length: float) -> bool:
+    """Does the wall surface at ``position`` along ``axis`` (metres) run up to the roof, as an
+    attic's knee wall does where the roof comes down onto it? Its points (``wall``: (n, 3)
+    points facing ``axis``; those within ``half_width`` of the position) end, along at least
+    ``min_length`` of the wall (counted in ``cell`` bins), within ``band`` of the roof's
+    underside over them: the lowest of the roof planes (``fits``, :func:`roof_planes`) whose
+    support reaches within ``reach`` of the point in plan (the underside of a pitched roof is
+    the lowest of its planes). The roof's points near the eaves are few (seen at a grazing
+    angle), so the planes, not the points, say where it meets the wall. Such a wall never
+    reaches the storey's top (the ridge), so the grammar's ceiling test does not take it;
+    furniture stops well short of the roof."""
+    q = wall[np.abs(wall[:, axis] - position) <= half_width]
+    if len(q) == 0 or not fits:
+        return False
+    o = 1 - axis
+    k = np.floor(q[:, o] / cell).astype(np.int64)
+    order = np.lexsort((q[:, 2], k))
+    last = np.r_[k[order][1:] != k[order][:-1], True]
+    tops = q[order[last]]  # the highest point of each bin along the wall
+    under = np.full(len(tops), np.inf)
+    for f in fits:
+        lo, hi = f.xy.min(axis=0) - reach, f.xy.max(axis=0) + reach
+        near = np.all((tops[:, :2] >= lo) & (tops[:, :2] <= hi), axis=1)
+        under[near] = np.minimum(under[near], f.plane.z(tops[near, 0], tops[near, 1]))
+    met = np.isfinite(under) & (np.abs(tops[:, 2] - under) <= band)
+    return int(met.sum()) * cell >= min_length

@@ -811,7 +811,7 @@ def test_a_ceilings_far_scan_lines_are_followed_until_a_jump():
     grow gradually (scan lines part with range: 0.23 m then 0.56 m on office_mw seen from one
     position); a jump of more than three times the largest step before it (and more than a
     wall's thickness) leaves the ceiling — the top of a site wall 10 m beyond the eaves."""
-    from engine.grammar.manhattan import _scan_lines
+    from engine.grammar.extent import scan_lines as _scan_lines
 
     lines = np.r_[np.linspace(0.0, 0.05, 20), np.linspace(0.23, 0.27, 20), np.linspace(0.79, 0.89, 20)]
     assert _scan_lines(lines, 0.5) == pytest.approx(0.89)
@@ -829,7 +829,8 @@ def test_a_walls_top_reaches_a_ceiling_seen_as_far_as_its_normals_are_spoiled(sp
     around the wall's that counted before. At σ = 16 cm (a sparse scan: two_storey_office at
     100k points without positions lost a partition so) that is the ceiling over the wall; on
     a dense scan (σ 3 cm) a ceiling seen only from 60 cm away is not."""
-    from engine.grammar.manhattan import _cell_lookup, _reaches_ceiling
+    from engine.grammar.extent import cell_lookup as _cell_lookup
+    from engine.grammar.manhattan import _reaches_ceiling
     from engine.grammar.place import StoreyFrame
 
     rng = np.random.default_rng(0)
