@@ -41,6 +41,7 @@ from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, lea
                    leaf_to_floor, near_points, observed_columns, on_solid)
 from .junctions import hidden_columns
 from .leaves import flush_leaves
+from .overlap import admit, overlap
 from .params import OpeningParams
 from .sills import level_sill, low_quantile, split_by_bottom
 from .viewpoints import group_members
@@ -493,6 +494,10 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
             leaf_to_floor(dd, c0, c1, rb, hs := int(round((m[2] - w.floor_z) / c)), leaf_sides, p):
         a, b = leaf_columns(dd, c0, c1, rb, hs, leaf_sides, p)  # the leaf's width, to the floor
         m = _measure(w, dd, (a, b, rb, r1), side, outer, obs, tol, leafy, p) or m
+    elif m and m[4] == "door" and side is not None and leafy:  # a closed door: as wide as its leaf
+        a, b = leaf_columns(dd, c0, c1, rb, int(round((m[3] - w.floor_z) / c)), leaf_sides, p)
+        if (a, b) != (c0, c1):
+            m = _measure(w, dd, (a, b, rb, r1), side, outer, obs, tol, leafy, p) or m
     if m is None or (side is not None and m[4] != "door"):
         return None
     el, er, eb, et, kind = m
@@ -547,7 +552,9 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     # and head stand inside the thickness: a shadow has neither (the shadowed share still
     # lowers the confidence); a wide "opening" may be a door joined to the shadow beside it
     occluded &= not (kind != "opening" and f_through >= p.min_seen_through and f_reveal >= p.reveal_share)
-    closed = kind == "door" and any(f >= need for f, need in cover) and f_through < p.min_seen_through
+    # (a stand-in's lines pass between a sparse leaf's points: they prove no open door)
+    closed = kind == "door" and any(f >= need for f, need in cover) and (f_through < p.min_seen_through
+                                                                        or dd.stand_in)
     if side is not None and not closed:
         return None
     if (w.external and f_through < p.min_seen_through and not _inner_faces(obs, a, b, outer)
@@ -635,39 +642,6 @@ def _fit_faces(frames: list[_Wall], idx: list, xyz: np.ndarray, p: OpeningParams
                 spread.append(mad)
         w.faces = np.array([w.thickness / 2 + offs[0], -(w.thickness / 2 + offs[1])])
     return float(np.median(spread)) if spread else 0.01
-
-
-def _overlaps(a: dict, b: dict) -> tuple[float, float]:
-    """How far two measured openings overlap along the wall and in height, metres (≤ 0: not)."""
-    return (min(a["u1"], b["u1"]) - max(a["u0"], b["u0"]),
-            min(a["sill"] + a["height"], b["sill"] + b["height"]) - max(a["sill"], b["sill"]))
-
-
-def _overlap(a: dict, b: dict, abut: float = 0.0) -> bool:
-    """Whether two measured openings overlap in the wall's plane by more than ``abut``
-    (metres) across one edge only (two windows measured from the mullion or transom between
-    them overlap by less: they are neighbours, see :func:`_abut`)."""
-    ou, oz = _overlaps(a, b)
-    return ou > 0 and oz > 0 and not (ou <= abut < oz or oz <= abut < ou)
-
-
-def _abut(a: dict, b: dict, abut: float) -> None:
-    """Two neighbouring openings overlapping by at most ``abut`` across one edge trimmed
-    (in place) to meet halfway."""
-    ou, oz = _overlaps(a, b)
-    if ou <= 0 or oz <= 0:
-        return
-    if ou <= abut < oz:  # side by side
-        lo, hi = (a, b) if a["u0"] + a["u1"] <= b["u0"] + b["u1"] else (b, a)
-        lo["u1"] = hi["u0"] = (lo["u1"] + hi["u0"]) / 2
-        for o in (lo, hi):
-            o["width"] = o["u1"] - o["u0"]
-    elif oz <= abut < ou:  # one above the other
-        lo, hi = (a, b) if a["sill"] <= b["sill"] else (b, a)
-        top = hi["sill"] + hi["height"]
-        lo["height"] = (hi["sill"] - lo["sill"] + lo["height"]) / 2
-        hi["sill"] = lo["sill"] + lo["height"]
-        hi["height"] = top - hi["sill"]
 
 
 def _shape(w: _Wall, o: dict, oid: str, name: str, exterior: str) -> Shape:
@@ -785,12 +759,9 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
                     o[side] = min(o["u1"], cut) if side == "u1" else max(o["u0"], cut)
                     o["width"] = o["u1"] - o["u0"]
             for o in judged:
-                if o is not None and o["width"] > 0 and not any(_overlap(o, f, p.abut) for f in found):
-                    for f in found:
-                        _abut(o, f, p.abut)
-                    found.append(o)
+                found = admit(found, o, p.abut)
         for o in flush_leaves(dd.fu, dd.fz, dd.fcls, dd.fdev, w.sides, w.length, w.floor_z, w.ceiling_z, tol, p):
-            if not any(_overlap(o, f, p.abut) for f in found):
+            if not any(overlap(o, f, p.abut) for f in found):
                 found.append(o)
         ext = exterior_ids.get(w.shape.storey, f"exterior_s{w.shape.storey}")
         for j, o in enumerate(sorted(found, key=lambda f: f["u0"])):

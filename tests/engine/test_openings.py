@@ -425,7 +425,7 @@ def test_an_opening_stops_at_the_end_of_its_wall_run():
 def test_openings_sharing_a_mullion_or_transom_meet_halfway():
     """Two windows measured from the frame between them overlap by a few centimetres: both
     stay, trimmed to meet halfway; a larger overlap is one hole found twice."""
-    from engine.elements.openings import _abut, _overlap
+    from engine.elements.overlap import abut as _abut, overlap as _overlap
 
     def win(u0, u1, sill, height):
         return {"u0": u0, "u1": u1, "width": u1 - u0, "sill": sill, "height": height}
@@ -442,6 +442,33 @@ def test_openings_sharing_a_mullion_or_transom_meet_halfway():
     assert _overlap(win(1.0, 2.2, 0.9, 1.4), win(2.0, 3.0, 0.9, 1.4), 0.05)  # 20 cm: one hole twice
     assert _overlap(win(1.0, 2.03, 0.9, 1.4), win(2.0, 3.0, 0.9, 1.4), 0.0)  # no tolerance: as before
     assert not _overlap(win(1.0, 2.0, 0.9, 1.4), win(2.5, 3.0, 0.9, 1.4), 0.05)  # apart
+
+
+def test_of_two_readings_of_one_hole_the_better_supported_stays():
+    """office_mw mobile, 100k points, seed 5: a closed door (its leaf 4.5 cm behind one face)
+    was read first as a gap on both faces at the scanner's own height (a band between its
+    lines: a 'window' 1.1 m wide, sill 1.0 m, confidence 0.40), then as a door with its leaf
+    behind the other face (0.70); the first reading kept the hole, so the door was missed and
+    a false window found. The better supported reading replaces the ones it overlaps;
+    neighbours that only share a frame stay."""
+    from engine.elements.overlap import admit
+
+    def op(u0, u1, sill, height, conf, kind):
+        return {"u0": u0, "u1": u1, "width": u1 - u0, "sill": sill, "height": height, "confidence": conf,
+                "kind": kind}
+
+    band, door = op(2.9, 4.0, 1.02, 0.68, 0.40, "window"), op(2.93, 3.88, 0.0, 2.27, 0.70, "door")
+    beside = op(0.5, 1.5, 0.9, 1.4, 0.5, "window")
+    found = admit(admit([], beside, 0.05), band, 0.05)
+    assert admit(found, door, 0.05) == [beside, door]
+    assert admit([beside, door], band, 0.05) == [beside, door]  # the weaker one after: not taken
+    tie = op(2.9, 4.0, 1.02, 0.68, 0.70, "window")
+    assert admit([beside, door], tie, 0.05) == [beside, door]  # a tie keeps the first
+    assert admit([beside], None, 0.05) == [beside]
+    # two_storey_office TLS 4 without positions: an open door read on both faces (0.80), then a
+    # closed-door reading of one face beside it (its leaf's points, 0.93): the first stays
+    closed = op(6.4, 7.1, 0.0, 2.0, 0.93, "door")
+    assert admit([op(5.75, 6.65, 0.0, 2.06, 0.80, "door")], closed, 0.05)[0]["u0"] == 5.75
 
 
 @pytest.mark.parametrize("channel_row", [43, 44])
