@@ -158,6 +158,15 @@ class StoreyParams:
     min_storey_height: Metres = 2.2
     """A ceiling lies at least this far above its floor; floors closer than this above a
     floor belong to the same storey, metres."""
+    min_scanner_height: Metres = 0.3
+    """A scanner (tripod, backpack, handheld) stands at least this far above the floor under
+    it, metres."""
+    max_scanner_height: Metres = 2.5
+    """... and at most this far, metres."""
+    min_standing_scanners: Count = 3
+    """A layer of enough area, not a ceiling by its contrast, is a floor when at least this
+    many scanner positions, and half of those between ``min_scanner_height`` and
+    ``max_scanner_height`` above it, stand over its cells at that height."""
     angle_tolerance: Radians = THETA
     """A normal within this angle of vertical is a horizontal-surface normal, radians."""
     sloped_top_quantile: Ratio = 0.99

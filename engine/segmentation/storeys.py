@@ -20,7 +20,10 @@ Method
    ``layer_half_width`` of another layer close by (a ceiling just under the floor of the
    storey above, its noisy normals) are not counted. Layers with
    |contrast| < ``min_side_contrast`` are dropped. When scanner positions are known, a
-   floor must lie below a scanner and a ceiling above one (a tie-breaker for real scans).
+   floor must lie below a scanner and a ceiling above one (a tie-breaker for real scans),
+   and a layer without the contrast of a ceiling is a floor when scanner positions stand over
+   its cells at an instrument's height above it (``min_standing_scanners``, and half of those
+   at that height over any layer).
 4. Pairing: floors in ascending order; floors less than ``min_storey_height`` above the
    previous kept floor join its storey (the larger-area one wins); a storey's ceiling is
    the highest ceiling layer at least ``min_storey_height`` above its floor and below the
@@ -155,6 +158,13 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
     sp = cloud.scanner_positions
     fin = None if sp is None else np.isfinite(sp).all(axis=1)
     scanner_z = None if fin is None or not fin.any() else sp[fin, 2]
+    scanner_cell = None  # each scanner's occupied cell (-1: over none)
+    if scanner_z is not None:
+        sxy = sp[fin, :2]
+        inside_grid = np.all((sxy >= origin) & (sxy < origin + dims * cell), axis=1)
+        key = _cells(np.where(inside_grid[:, None], sxy, origin), origin, cell, dims)
+        at = np.minimum(np.searchsorted(occupied, key), len(occupied) - 1)
+        scanner_cell = np.where(inside_grid & (occupied[at] == key), at, -1)
     layers = []
     hw = params.layer_half_width
     peak_z = [z0 + (b + 0.5) * params.bin_size for b in peaks]
@@ -204,6 +214,17 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
                     kind = "other"
                 elif kind == "ceiling" and not np.any(scanner_z < z):
                     kind = "other"
+                elif kind == "other" and contrast > -params.min_side_contrast:
+                    # scanners stood on it: positions over its cells at an instrument's
+                    # height above it (FZK-Haus's attic floor 0.2 m over the ground floor's
+                    # ceiling: the slab's edges and the stair's points in the thin window
+                    # under it left it a contrast of -0.03 on a mobile walk, 0.39 on the next seed)
+                    # (most of those at that height over it: a desk's top holds few of a walk's)
+                    h = scanner_z - z
+                    at = (h >= params.min_scanner_height) & (h <= params.max_scanner_height)
+                    standing = int(np.count_nonzero(occ[scanner_cell[at & (scanner_cell >= 0)]]))
+                    if standing >= max(params.min_standing_scanners, 0.5 * int(at.sum())):
+                        kind = "floor"
         layers.append(Layer(z=z, points=cnt, area=float(area), contrast=float(contrast), kind=kind))
     layers.sort(key=lambda L: L.z)
     log.debug("layers: %s", layers)
