@@ -294,7 +294,8 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
     the cabinet's front, with a 0.7 m "wall" holding a false door. A run across them, from an
     interior cuboid wider than a wall both ways (a room part, not a doorway's band; the face
     between them unseen, IPoF < τ on both) over exterior cuboids on the floor (and thin
-    interior ones the classification made rooms of) to a wall cuboid, each at most
+    interior ones the classification made rooms of, the first one too: a wall line elsewhere
+    on the storey cuts a strip off the room; at least one exterior) to a wall cuboid, each at most
     ``max_wall_thickness`` across and longer than that along the wall (a strip, not a piece of
     a wall line: a run along a wall line from a doorway merged a corridor with a room), all
     at most ``pocket_width`` across, closed at its ends (walls, rooms, such runs or the grid's
@@ -338,9 +339,10 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
             back = {2: 4, 3: 5, 4: 2, 5: 3}[f]
             run, q = [], (i + di, j + dj)
             edges = X if di else Y
-            while (free(q) or (inside(q) and types[q[0], q[1], 0] == ShapeType.INTERIOR and run)) \
+            while (free(q) or (inside(q) and types[q[0], q[1], 0] == ShapeType.INTERIOR)) \
                     and edges[q[0 if di else 1] + 1] - edges[q[0 if di else 1]] <= t_max:
-                run.append(q)  # ... or a thin part the classification made a room of
+                run.append(q)  # ... or a thin part the classification made a room of (first too:
+                # another storey's wall line cuts one off the room; a run needs a free part)
                 q = (q[0] + di, q[1] + dj)
             if not run or not inside(q) or types[q[0], q[1], 0] != ShapeType.WALL or \
                     any(across(c)[1 if di else 0] <= t_max for c in run):

@@ -252,6 +252,29 @@ def test_a_sparse_mobile_scans_closed_door_is_a_door_as_wide_as_its_leaf(seed, p
     assert r["doors"]["recall"] == 1.0 and r["windows"]["precision"] >= 0.9, (r["doors"], r["windows"])
 
 
+
+@pytest.mark.slow
+def test_a_strip_behind_a_shelf_whose_first_part_is_a_room_part_joins_its_room(results):
+    """two_storey_office mobile, seed 3, 300k points, without scanner positions: upstairs a
+    shelf (front at x 9.48) stands against the partition at 9.87-10.1; a wall line of the
+    storey cuts the room at x 9.1, so the strip behind the shelf is a thin interior part
+    (9.1-9.5, its ceiling 0.43 seen) and an exterior one (9.5-9.87, 0.29): the run across them
+    started only at an exterior part, the exterior part stayed outside, and the partition was
+    a 0.6 m wall with a 1.3 m "door". A run may start with a thin interior part when it
+    holds an exterior one."""
+    from engine.evaluation.elements import _in_truth_frame
+
+    sc, _, _ = _run(results, "two_storey_office", "mobile", 3)
+    m = reconstruct(sc.cloud.with_(scan_index=None, scanner_positions=None), "auto", rng=3)
+    r = evaluate_elements(m, sc.truth)
+    assert r["doors"]["true"] == r["doors"]["found"] == r["doors"]["matched"] == 13, r["doors"]
+    mt = _in_truth_frame(m, sc.truth)
+    upper = [w for w in mt.walls if w.bounds[0, 2] > 2.5 and w.bounds[1, 1] < 0.0 and w.bounds[0, 1] > -5.0
+             and w.bounds[0, 0] < 10.1 and w.bounds[1, 0] > 9.4 and w.bounds[1, 1] - w.bounds[0, 1] > 3.0]
+    assert len(upper) == 1, [w.bounds.round(2).tolist() for w in upper]
+    assert upper[0].bounds[1, 0] - upper[0].bounds[0, 0] <= 0.3, upper[0].bounds.round(2).tolist()
+
+
 @pytest.mark.slow
 def test_half_shadowed_terrace_doors_with_their_reveals_are_found(results):
     """The Duplex, mobile, seed 6: each flat's terrace door (0.81 m, beside a 4.8 m glazed
