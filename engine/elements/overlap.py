@@ -1,7 +1,7 @@
 """Openings measured on one wall that overlap in its plane (:mod:`.openings`): neighbours
 measured from the mullion or transom between them are trimmed to meet halfway; rival readings
-of one hole as a door and as a window (a closed door's leaf behind one face, and a band between
-a mobile scanner's lines across it) keep the better supported one."""
+of one hole as a door and, first, as a window (a closed door's leaf behind one face, and a band
+between a mobile scanner's lines across it) keep the door when it is the better supported."""
 from __future__ import annotations
 
 __all__ = ["abut", "admit", "overlap", "overlaps"]
@@ -42,15 +42,17 @@ def abut(a: dict, b: dict, gap: float) -> None:
 
 def admit(found: list, o, gap: float) -> list:
     """``found`` with the measured opening ``o`` (None: nothing) added when it overlaps none
-    of them (:func:`overlap` by more than ``gap``), or only readings of another kind (a window
-    where it reads a door) less supported than it (``confidence``), which it then replaces;
-    its neighbours are trimmed to meet it (:func:`abut`). Of two readings of one kind the
-    first stays (gaps on both faces are read first: a gap on one face beside an open door is
-    its leaf's or a shadow's)."""
+    of them (:func:`overlap` by more than ``gap``), or, being a door, only windows less
+    supported than it (``confidence``), which it then replaces; its neighbours are trimmed to
+    meet it (:func:`abut`). Of two readings of one kind the first stays (gaps on both faces are
+    read first: a gap on one face beside an open door is its leaf's or a shadow's), and a
+    window never replaces a door: a door's hole reaches the floor, and a window read within it
+    is its glazing or a band between a scanner's lines."""
     if o is None or o["width"] <= 0:
         return found
     clash = [f for f in found if overlap(o, f, gap)]
-    if any(o["kind"] == f["kind"] or o["confidence"] <= f["confidence"] for f in clash):
+    if clash and (o["kind"] != "door" or any(f["kind"] != "window" or o["confidence"] <= f["confidence"]
+                                               for f in clash)):
         return found
     kept = [f for f in found if not any(f is g for g in clash)]
     for f in kept:

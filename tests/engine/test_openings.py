@@ -464,6 +464,8 @@ def test_of_two_readings_of_one_hole_the_better_supported_stays():
     assert admit([beside, door], band, 0.05) == [beside, door]  # the weaker one after: not taken
     tie = op(2.9, 4.0, 1.02, 0.68, 0.70, "window")
     assert admit([beside, door], tie, 0.05) == [beside, door]  # a tie keeps the first
+    glazing = op(2.95, 3.85, 1.0, 1.1, 0.9, "window")  # a glazed door's pane, better seen through
+    assert admit([beside, door], glazing, 0.05) == [beside, door]  # never replaces the door
     assert admit([beside], None, 0.05) == [beside]
     # two_storey_office TLS 4 without positions: an open door read on both faces (0.80), then a
     # closed-door reading of one face beside it (its leaf's points, 0.93): the first stays
