@@ -294,8 +294,9 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                     hi_w = w if w != float(q[-1]) else hi_e
                 lo_e, hi_e = min(lo_e, lo_w), max(hi_e, hi_w)
             if first and roof:  # an attic: the outermost knee walls the roof comes down onto
+                facing = p[along[a]]
                 knee = [pk.position for pk in peaks_of(a, params.min_bound_wall_area) if meets_roof(
-                    p[along[a]], roof, a, pk.position, half_width=max(1.5 * params.bin_size, d / 2),
+                    facing, roof, a, pk.position, half_width=max(1.5 * params.bin_size, d / 2),
                     reach=t_max, band=params.wall_top_band, cell=params.level_cell,
                     min_length=params.min_wall_top_length)]
                 lo_w, hi_w = min([lo_w] + knee), max([hi_w] + knee)

@@ -342,7 +342,7 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
             while (free(q) or (inside(q) and types[q[0], q[1], 0] == ShapeType.INTERIOR)) \
                     and edges[q[0 if di else 1] + 1] - edges[q[0 if di else 1]] <= t_max:
                 run.append(q)  # ... or a thin part the classification made a room of (first too:
-                # another storey's wall line cuts one off the room; a run needs a free part)
+                # a wall line elsewhere on the storey cuts one off the room; a run needs a free part)
                 q = (q[0] + di, q[1] + dj)
             if not run or not inside(q) or types[q[0], q[1], 0] != ShapeType.WALL or \
                     any(across(c)[1 if di else 0] <= t_max for c in run):

@@ -129,7 +129,6 @@ def slope_spaces(model: BuildingModel, storey: int, fits: list, *, spacing: floa
     return model
 
 
-
 def meets_roof(wall: np.ndarray, fits: list, axis: int, position: float, *, half_width: float,
                reach: float, band: float, cell: float, min_length: float) -> bool:
     """Does the wall surface at ``position`` along ``axis`` (metres) run up to the roof, as an

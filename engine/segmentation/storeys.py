@@ -163,8 +163,8 @@ def detect_layers(cloud: PointCloud, params: StoreyParams = StoreyParams()) -> l
         sxy = sp[fin, :2]
         inside_grid = np.all((sxy >= origin) & (sxy < origin + dims * cell), axis=1)
         key = _cells(np.where(inside_grid[:, None], sxy, origin), origin, cell, dims)
-        at = np.minimum(np.searchsorted(occupied, key), len(occupied) - 1)
-        scanner_cell = np.where(inside_grid & (occupied[at] == key), at, -1)
+        pos = np.minimum(np.searchsorted(occupied, key), len(occupied) - 1)
+        scanner_cell = np.where(inside_grid & (occupied[pos] == key), pos, -1)
     layers = []
     hw = params.layer_half_width
     peak_z = [z0 + (b + 0.5) * params.bin_size for b in peaks]
