@@ -18,7 +18,8 @@ truth can lack a slab or have outline stretches with no wall).
 Writes ``elements_table.md`` (one compact markdown row per scene / noise / seed) and
 ``elements_runs.json`` (every figure) into the out folder; ``python -m bench`` also writes
 ``elements.json``. Standalone: ``python -m bench.bench_elements --out DIR [--scenes ...]
-[--noise tls mobile] [--seeds 0 1 2] [--points N] [--no-ifc] [--quick]``.
+[--noise tls mobile] [--seeds 0 1 2] [--points N] [--no-ifc] [--positions yes|no|both] [--quick]``
+(``hexagon_hall`` and any other preset may be named in ``--scenes``).
 """
 from __future__ import annotations
 
@@ -55,10 +56,12 @@ def _scene(name: str, seed: int, noise: str, points: int):
     return preset(name, seed=seed, noise=noise, target_points=points)
 
 
-def one(name: str, noise: str, seed: int, points: int, truths: dict = None) -> dict:
+def one(name: str, noise: str, seed: int, points: int, truths: dict = None, positions: bool = True) -> dict:
     """Scene → reconstruct (auto) → element scores; the error text instead when a step fails.
-    ``truths`` (optional) collects the scene's truth under its name."""
-    row = {"scene": name, "noise": noise, "seed": int(seed)}
+    ``truths`` (optional) collects the scene's truth under its name. ``positions`` False: the
+    scan is reconstructed from its points alone (no scanner positions, no scan of each point,
+    as a merged export), the truth scored against as before."""
+    row = {"scene": name, "noise": noise, "seed": int(seed), "positions": bool(positions)}
     try:
         from engine.evaluation import evaluate_elements
         from engine.evaluation.rooms import scanned_spaces
@@ -71,7 +74,8 @@ def one(name: str, noise: str, seed: int, points: int, truths: dict = None) -> d
         if truths is not None:
             truths.setdefault(name, sc.truth)
         t0 = time.perf_counter()
-        model = reconstruct(sc.cloud, "auto", rng=seed)
+        cloud = sc.cloud if positions else sc.cloud.with_(scanner_positions=None, scan_index=None)
+        model = reconstruct(cloud, "auto", rng=seed)
         row["reconstruct_s"] = round(time.perf_counter() - t0, 2)
         row["method"] = model.provenance.method
         t0 = time.perf_counter()
@@ -100,7 +104,7 @@ def _f(v, digits=2, scale=1.0) -> str:
 
 def table_row(r: dict) -> str:
     """One markdown row of :data:`COLUMNS` for a result of :func:`one`."""
-    head = [r["scene"], r["noise"], str(r["seed"])]
+    head = [r["scene"], r["noise"], str(r["seed"]) + ("" if r.get("positions", True) else " (no positions)")]
     if "error" in r:
         return "| " + " | ".join(head + [f"error: {r['error'][:80]}"] + [""] * (len(COLUMNS) - 4)) + " |"
     e = r["elements"]
@@ -138,14 +142,15 @@ def _ifc_available() -> bool:
         return False
 
 
-def bench(out_dir: str, scenes, noises, seeds, points: int) -> dict:
+def bench(out_dir: str, scenes, noises, seeds, points: int, positions=(True,)) -> dict:
     rows, truths = [], {}
     for name in scenes:
         for noise in noises:
             for seed in seeds:
-                r = one(name, noise, seed, points, truths)
-                rows.append(r)
-                print(table_row(r), flush=True)
+                for pos in positions:
+                    r = one(name, noise, seed, points, truths, pos)
+                    rows.append(r)
+                    print(table_row(r), flush=True)
         if name in truths:
             rows.append(baseline(name, truths[name]))
             print(table_row(rows[-1]), flush=True)
@@ -179,6 +184,8 @@ def main(argv=None) -> int:
     p.add_argument("--points", type=int, default=POINTS)
     p.add_argument("--no-ifc", action="store_true", help="leave out the IFC scenes")
     p.add_argument("--quick", action="store_true", help="office_mw, tls, seed 0, 100k points")
+    p.add_argument("--positions", choices=("yes", "no", "both"), default="yes",
+                   help="reconstruct with the scanner positions, without (a merged export), or both")
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     if a.quick:
@@ -186,7 +193,8 @@ def main(argv=None) -> int:
     else:
         ifc = () if a.no_ifc or not _ifc_available() else IFC_SCENES
         scenes = tuple(a.scenes) if a.scenes else SCENES + ifc
-        res = bench(a.out, scenes, a.noise, a.seeds, a.points)
+        pos = {"yes": (True,), "no": (False,), "both": (True, False)}[a.positions]
+        res = bench(a.out, scenes, a.noise, a.seeds, a.points, pos)
     atomic_write_text(os.path.join(a.out, "elements.json"),
                       json.dumps({"benchmark": "elements", "results": res}, indent=1) + "\n")
     print()
