@@ -13,8 +13,9 @@ step between its scan lines at its far end (how much farther beyond its last poi
 a wall's thickness a weak wall may close it)."""
 
 
-def seen_extent(xy: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
-    """Seen extent of the main ceiling along x and y, metres: (lo (2,), hi (2,)).
+def seen_extent(xy: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Seen extent of the main ceiling along x and y, metres: (lo (2,), hi (2,)) of its cells
+    and (lo (2,), hi (2,)) of its points.
 
     ``xy`` : (n, 2) float64 horizontal coordinates of the ceiling's points, metres. The
     points are binned into ``cell`` × ``cell`` cells (``level_cell``); the largest
@@ -22,7 +23,8 @@ def seen_extent(xy: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
     windows are not, so no percentile is needed), and the outer edges of its outermost
     cells along each axis give the extent. Cells, not points: a terrestrial scan
     is far denser near the scanner, so a point percentile would cut off the sparsely seen
-    far end of a ceiling.
+    far end of a ceiling. The outermost points of those cells say how far the ceiling was
+    seen (the cells' edges overstate it by up to a cell).
     """
     from scipy import ndimage
 
@@ -32,11 +34,14 @@ def seen_extent(xy: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
     grid = np.zeros(tuple(c.max(axis=0) + 1), dtype=bool)
     grid[c[:, 0], c[:, 1]] = True
     lab, n = ndimage.label(grid, structure=np.ones((3, 3), dtype=bool))
+    inside = np.ones(len(xy), dtype=bool)
     if n > 1:
         sizes = np.bincount(lab.ravel())[1:]
         grid = lab == (int(np.argmax(sizes)) + 1)
+        inside = grid[c[:, 0], c[:, 1]]
     idx = np.argwhere(grid) + c0
-    return idx.min(axis=0) * cell, (idx.max(axis=0) + 1) * cell
+    seen = xy[inside]
+    return idx.min(axis=0) * cell, (idx.max(axis=0) + 1) * cell, seen.min(axis=0), seen.max(axis=0)
 
 
 def scan_lines(r: np.ndarray, gap: float) -> float:

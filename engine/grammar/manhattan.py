@@ -263,10 +263,16 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                 continue
             if first:
                 if not extents:
-                    extents["lo"], extents["hi"] = seen_extent(p[sel, :2], params.level_cell)
+                    extents["lo"], extents["hi"], extents["plo"], extents["phi"] = seen_extent(
+                        p[sel, :2], params.level_cell)
                 lo_e, hi_e = float(extents["lo"][a]), float(extents["hi"][a])
+                # how far it was seen: its points (the cells' edges overstate it by up to a cell,
+                # and the head of a glazed opening in a 0.42 m wall then read as a room beyond it)
+                lo_s, hi_s = float(extents["plo"][a]), float(extents["phi"][a])
             else:
                 lo_e, hi_e = np.percentile(p[sel, a], [params.extent_percentile, 100 - params.extent_percentile])
+                lo_s, hi_s = lo_e, hi_e
+            lo_0, hi_0 = lo_e, hi_e
             if weak is None:  # sparsely seen surfaces facing a that reach a ceiling
                 weak = [pk.position for pk in peaks_of(a, params.min_bound_wall_area)
                         if _reaches_ceiling(cand, a, pk.position, frame, params, spacing, None, cand[:, a])]
@@ -301,9 +307,12 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                     min_length=params.min_wall_top_length)]
                 lo_w, hi_w = min([lo_w] + knee), max([hi_w] + knee)
                 lo_e, hi_e = min(lo_e, lo_w), max(hi_e, hi_w)
-            if not peaks or lo_e < peaks[0] - t_max:
+            # the seen extent's own reach, or that of a wall or scan lines beyond it
+            lo_d = lo_s if lo_e == lo_0 else min(lo_s, lo_e)
+            hi_d = hi_s if hi_e == hi_0 else max(hi_s, hi_e)
+            if not peaks or lo_d < peaks[0] - t_max:
                 peaks.insert(0, lo_w)
-            if hi_e > peaks[-1] + t_max:
+            if hi_d > peaks[-1] + t_max:
                 peaks.append(hi_w)
         if len(peaks) < 2:
             raise ReconstructionError(f"storey {storey}: fewer than two wall surfaces facing "
