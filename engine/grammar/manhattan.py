@@ -71,6 +71,7 @@ from .place import (StoreyFrame, detect_levels, given_frame, histogram_peaks, pa
 from .extent import FAR_POINTS, cell_lookup, closing_wall, scan_lines, seen_extent
 from .roof import meets_roof, roof_planes, slope_spaces
 from .rules import classify, derive_topology, reject_implausible_spaces
+from .visibility import Views, seen_through
 
 __all__ = ["manhattan_model", "reconstruct_manhattan", "reconstruct_grammar", "place_storey"]
 
@@ -195,7 +196,7 @@ def _ceiling_mask(p: np.ndarray, hor: np.ndarray, level: float, frame: StoreyFra
 
 def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, storey: int,
                  params: ManhattanParams, spacing: float, oriented: bool = False,
-                 roof: Optional[list] = None) -> list[Shape]:
+                 roof: Optional[list] = None, views: Optional[Views] = None) -> list[Shape]:
     """Place, compute the point-on-face indices, and classify the cuboids of one storey.
 
     Parameters
@@ -209,6 +210,9 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
         face, or without orientation from the side it is open to.
     roof : the roof planes of an attic storey (:func:`.roof.roof_planes`), or None; a knee wall the roof
         comes down onto closes the grid like a wall reaching the ceiling (:func:`.roof.meets_roof`).
+    views : where the scan was taken from (:class:`.visibility.Views`), or None: exterior cuboids
+        whose far walls were seen through them from inside may be rooms' parts
+        (:func:`.visibility.seen_through`).
 
     Returns the classified parts (cuboids), not yet merged.
     """
@@ -421,7 +425,8 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                                          type=ShapeType.WALL, terminal=True)
     doorway_tops(shapes, types, lowest, X, Y, params, spacing, margin)
     wide_passages(shapes, types, params, upper)
-    enclosed_pockets(shapes, types, params)
+    enclosed_pockets(shapes, types, params, seen_through(shapes, types, xyz, normals, X, Y, frame, storey,
+                                                         params, spacing, margin, views))
     furniture_strips(shapes, types, lowest, X, Y, params, margin)
     wide_passages(shapes, types, params, upper)  # pockets turned interior can flank a passage too
     _open_voids(shapes, types, xyz, normals, frame, params)
@@ -584,6 +589,8 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
     # the preprocessing turns each normal toward its scanner when the scan says where they were
     oriented = (cloud.normals is not None and sp is not None and bool(np.isfinite(sp).all())
                 and (len(sp) == 1 or (len(sp) > 1 and cloud.scan_index is not None)))
+    views = Views(sp, cloud.scan_index) if sp is not None and len(sp) and bool(np.isfinite(sp).all()) \
+        else Views()
     if cloud.normals is not None:
         normals = cloud.normals.astype(np.float64)
     else:
@@ -629,7 +636,7 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
             roofs[si] = roof_planes(xyz[under], normals[under], spacing=spacing, buffer=params.shape_buffer,
                                     min_roof_area=params.min_roof_area)
         parts.extend(place_storey(sx, sn, fr, si, params, spacing, oriented=oriented,
-                                  roof=roofs.get(si)))
+                                  roof=roofs.get(si), views=views))
         elev = float((T @ np.array([0.0, 0.0, fr.floor, 1.0]))[2] + cloud.offset[2])
         model_storeys.append(Storey(si, fr.floor, fr.ceiling, f"Storey {si}", elev))
     timings["place_classify"] = time.perf_counter() - t2

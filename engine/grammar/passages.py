@@ -6,6 +6,8 @@ a room behind tall furniture against a wall (:func:`furniture_strips`). They cha
 ``shapes`` / ``types`` of :func:`.manhattan.place_storey` in place."""
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
 
 from ..model import ShapeType
@@ -188,7 +190,8 @@ def _between_walls(types: np.ndarray, row: list, step: tuple, ax: int) -> bool:
     return True
 
 
-def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -> None:
+def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams,
+                     seen_through: Optional[dict] = None) -> None:
     """Narrow parts of a room whose ceiling no scan line crossed, in place (issue 19).
 
     An exterior cuboid on the floor, wider than a wall but at most ``pocket_width`` across,
@@ -205,9 +208,13 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -
     ceiling point, and the strip between the hallway and the bedroom's wall was exterior —
     a 0.7 m "wall" with the bedroom's door in it leading outside. The outside is not closed
     by walls and rooms; a courtyard or a light well is wider; a shaft is not open to a room.
+    A wider cuboid is a candidate too when it is in ``seen_through`` ({(i, j): faces}: its far
+    walls seen through it from inside the building, the rays entering by those faces,
+    :func:`.visibility.seen_through`); it is open only to a room across one of those faces.
     Those parts get ``attributes["ceiling_seen"] = False`` (lower confidence)."""
     if params.pocket_width <= 0:
         return
+    seen_through = seen_through or {}
     nx, ny, nz = types.shape
     tau, t_max = params.tau, params.max_wall_thickness
     cand, gaps = set(), set()
@@ -221,7 +228,7 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -
             if size.min() <= t_max:
                 gaps.add((i, j))  # a gap in a wall line: closed only if what lies beyond it is
             elif size.min() <= params.pocket_width and \
-                    s.support.get("ipof_bottom", 0.0) > params.min_room_evidence:
+                    s.support.get("ipof_bottom", 0.0) > params.min_room_evidence or (i, j) in seen_through:
                 cand.add((i, j))
     closed = (ShapeType.INTERIOR, ShapeType.WALL)
 
@@ -261,11 +268,15 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams) -
     for (i, j) in sorted(cand):
         s = shapes[(i, j, 0)]
         via, room = [], None
+        # wider than a pocket: open only to the room its far walls were seen from, directly
+        wide = seen_through.get((i, j)) if np.ptp(s.geometry.bounds[:, :2], axis=0).min() > \
+            params.pocket_width else None
         for f, di, dj in _SIDES:  # a room across an unseen face, or across a sliver beyond it
             q, path = (i + di, j + dj), []
-            if s.support.get(f"ipof_f{f}", 0.0) >= tau:
+            if s.support.get(f"ipof_f{f}", 0.0) >= tau or (wide is not None and f not in wide):
                 continue
-            if q in gaps and float(np.ptp(shapes[q + (0,)].geometry.bounds[:, 0 if di else 1])) <= sliver \
+            if wide is None and q in gaps and \
+                    float(np.ptp(shapes[q + (0,)].geometry.bounds[:, 0 if di else 1])) <= sliver \
                     and shapes[q + (0,)].support.get(f"ipof_f{f}", 0.0) < tau:
                 path, q = [q], (q[0] + di, q[1] + dj)
             if 0 <= q[0] < nx and 0 <= q[1] < ny and types[q[0], q[1], 0] == ShapeType.INTERIOR:

@@ -531,6 +531,80 @@ def test_a_pocket_behind_a_sliver_joins_the_room_with_it(gap, expect):
     assert types[0, 1, 0] == expect and types[0, 2, 0] == expect
 
 
+def _half_seen_room(window: bool):
+    """three_storey_house mobile (seeds 3, 4, 7): a bedroom (0..7 x 0..4 m) cut at x 4..4.15 by
+    the plane of a partition of the rooms north of it; the walk stayed in its west half, so its
+    east half's ceiling (0.06) and floor (0.16) were seen only at a glance and it was typed
+    exterior, yet its far walls (y = 0 and x = 7) were seen across it. ``window``: the face at
+    x = 4.15 is seen (a wall with a window in it between the two halves)."""
+    from engine.grammar.geometry import box_of
+    from engine.model import Shape
+
+    X, Y = np.array([0.0, 4.0, 4.15, 7.0]), np.array([0.0, 4.0, 4.15, 8.0])
+    I, E, W = ShapeType.INTERIOR, ShapeType.EXTERIOR, ShapeType.WALL
+    kinds = {(0, 0): I, (1, 0): I, (2, 0): E, (0, 1): W, (1, 1): W, (2, 1): E, (0, 2): I, (1, 2): W,
+             (2, 2): I}
+    faces = {(2, 0): dict(ipof_bottom=0.16, ipof_top=0.06, ipof_f2=0.48, ipof_f3=0.38, ipof_f4=0.19,
+                          ipof_f5=0.5 if window else 0.0),
+             (1, 0): dict(ipof_bottom=0.7, ipof_top=0.3, ipof_f3=0.5 if window else 0.0),
+             (2, 1): dict(ipof_f2=0.19, ipof_f4=0.27)}
+    shapes, types = {}, np.empty((3, 3, 1), dtype=object)
+    for (i, j), t in kinds.items():
+        sup = {f"ipof_f{q}": 0.0 for q in range(2, 6)}
+        sup.update({"ipof_bottom": 0.9, "ipof_top": 0.9} if t == I else {"ipof_bottom": 0.0, "ipof_top": 0.0})
+        sup.update(faces.get((i, j), {}))
+        thin = 2 if (i, j) == (1, 1) else 0 if i == 1 else 1 if j == 1 else None
+        shapes[i, j, 0] = Shape(id=f"c{i}{j}", type=t, grid=(i, j, 0), support=sup,
+                                geometry=box_of((X[i], Y[j], 0), (X[i + 1], Y[j + 1], 2.6)),
+                                attributes={"thin_axis": thin})
+        types[i, j, 0] = t
+    # the far walls' points: y = 0 and x = 7 over the east half, 5 cm apart
+    g = np.arange(0.025, 2.6, 0.05)
+    u1, z1 = np.meshgrid(np.arange(4.175, 7.0, 0.05), g, indexing="ij")
+    u2, z2 = np.meshgrid(np.arange(0.025, 4.0, 0.05), g, indexing="ij")
+    south = np.column_stack([u1.ravel(), np.zeros(u1.size), z1.ravel()])
+    east = np.column_stack([np.full(u2.size, 7.0), u2.ravel(), z2.ravel()])
+    xyz = np.vstack([south, east])
+    normals = np.vstack([np.tile([0.0, 1.0, 0.0], (len(south), 1)), np.tile([-1.0, 0.0, 0.0], (len(east), 1))])
+    return shapes, types, xyz, normals, X, Y
+
+
+@pytest.mark.parametrize("scanner, window, expect", [
+    ((2.0, 2.0, 1.5), False, ShapeType.INTERIOR),  # seen across the room from its west half
+    (None, False, ShapeType.INTERIOR),             # no positions: a stand-in in the west half
+    ((2.0, 2.0, 1.5), True, ShapeType.EXTERIOR),   # seen only through a window: proves nothing
+    ((9.0, 2.0, 1.5), False, ShapeType.EXTERIOR),  # from a scanner outside the building
+    ((2.0, 6.0, 1.5), False, ShapeType.EXTERIOR),  # from the room north of it, through its wall
+])
+def test_a_room_whose_far_walls_were_seen_through_it_from_inside_is_interior(scanner, window, expect):
+    """"Not seen" is not "not there": an exterior cuboid wider than a pocket whose far walls were
+    seen from an interior cuboid, along rays through interior cuboids and unseen faces only, is
+    part of the room they were seen from (:func:`engine.grammar.visibility.seen_through`); the
+    partition between it and the room north of it stays as it was."""
+    from engine.grammar.passages import enclosed_pockets
+    from engine.grammar.place import StoreyFrame
+    from engine.grammar.visibility import Views, seen_through
+
+    shapes, types, xyz, normals, X, Y = _half_seen_room(window)
+    params = ManhattanParams(max_wall_thickness=0.3, shape_buffer=0.05, spacing=0.05, noise=0.01,
+                             bin_size=0.02)
+    views = Views() if scanner is None else Views(np.array([scanner]), np.zeros(len(xyz), np.int32))
+    seen = seen_through(shapes, types, xyz, normals, X, Y, StoreyFrame(0.0, (2.6,)), 0, params, 0.05,
+                        0.02, views)
+    assert ((2, 0) in seen) == (expect == ShapeType.INTERIOR)
+    assert seen_through(shapes, types, xyz, normals, X, Y, StoreyFrame(0.0, (2.6,)), 0, params, 0.05,
+                        0.02, None) == {}  # no test without views
+    enclosed_pockets(shapes, types, params, seen)
+    assert types[2, 0, 0] == expect and shapes[2, 0, 0].type == expect
+    assert types[2, 1, 0] == ShapeType.EXTERIOR  # the partition's gap: not joined to either room
+    if expect == ShapeType.INTERIOR:
+        assert shapes[2, 0, 0].attributes["ceiling_seen"] is False and "face 5" in shapes[2, 0, 0].log[-1]
+    # without the visibility test the wide cuboid is no pocket
+    shapes, types, *_ = _half_seen_room(window)
+    enclosed_pockets(shapes, types, params)
+    assert types[2, 0, 0] == ShapeType.EXTERIOR
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_attic_needs_the_flat_ceilings_to_be_few(seed):
     """A storey is an attic (its sloped points copied onto its top as ceiling) only when they
