@@ -565,7 +565,8 @@ def _half_seen_room(window: bool):
     south = np.column_stack([u1.ravel(), np.zeros(u1.size), z1.ravel()])
     east = np.column_stack([np.full(u2.size, 7.0), u2.ravel(), z2.ravel()])
     xyz = np.vstack([south, east])
-    normals = np.vstack([np.tile([0.0, 1.0, 0.0], (len(south), 1)), np.tile([-1.0, 0.0, 0.0], (len(east), 1))])
+    normals = np.vstack([np.tile([0.0, 1.0, 0.0], (len(south), 1)),
+                         np.tile([-1.0, 0.0, 0.0], (len(east), 1))])
     return shapes, types, xyz, normals, X, Y
 
 
