@@ -150,6 +150,10 @@ class RjmcmcParams:
     ceiling (its ceiling layer within this of that over a cell of the space it touches),
     metres. A strip inside an outer wall between its face and a window's glazing is behind
     the wall's face and has the window's head for a ceiling, 0.3-0.8 m under the room's."""
+    corner_area: SquareMetres = 1.0
+    """After that, a space takes in the corners behind its furniture: a group of uncovered
+    cells it reaches through no seen wall, closed off by the lines of its own seen walls
+    alone, up to this area in all, m² (0: off). See ``SpaceSearch.fill_corners``."""
     trace_every: Count = 50
     """Record (iteration, log-score, spaces) in the trace every this many iterations."""
 

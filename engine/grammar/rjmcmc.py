@@ -519,6 +519,13 @@ class SpaceSearch:
                 changed = True
         return added
 
+    def fill_corners(self) -> int:
+        """Complete each space into the corners behind its furniture (``corner_area``,
+        :func:`.corners.fill_corners`); returns the number of cells added."""
+        from .corners import fill_corners
+
+        return fill_corners(self)
+
     def all_moves(self):
         """Every applicable move of the current state (for the greedy polish)."""
         for c in range(self.n):
@@ -626,6 +633,7 @@ def search_spaces(cells: CellSet, coverage: CellCoverage, params: RjmcmcParams =
     if params.absorb_covered and best:
         st.set_model(best)
         absorbed = st.absorb_covered()
+        absorbed += st.fill_corners()
         if absorbed:
             best, best_score = st.model(), st.score
     n_prop = sum(proposed.values())

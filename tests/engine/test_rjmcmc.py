@@ -290,3 +290,46 @@ def test_a_strip_whose_ceiling_is_a_windows_head_is_not_walled_in(kind):
     st.set_model([[0]])
     st.absorb_covered()
     assert st.model() == (((0,),) if kind == "window" else ((0, 1),)), st.model()
+
+
+@pytest.mark.parametrize("case", ["cupboard", "notch", "large"])
+def test_a_corner_behind_a_cupboard_completes_the_room(case):
+    """A 4 m x 3 m room whose north-east corner holds a tall cupboard: its ceiling and the two
+    walls behind it are hidden, and a line running on from another wall cuts the corner off
+    along the cupboard's front (hexagon_hall mobile: the side rooms' corners were cut off, a
+    false window in the cut). The corner, closed by the lines of the room's own seen walls,
+    joins the room. Not when the cut is a seen wall (an L-shaped room's notch), nor when the
+    corner is larger than ``corner_area``."""
+    s = 0.6 if case != "large" else 1.6  # the cut's legs along the walls, metres
+    room = shapely.Polygon([(0, 0), (4, 0), (4, 3 - s), (4 - s, 3), (0, 3)])
+    corner = shapely.Polygon([(4 - s, 3), (4, 3), (4, 3 - s)])
+    polys = [room, corner, shapely.box(-0.15, -0.15, 4.15, 0), shapely.box(-0.15, 3, 4.15, 3.15),
+             shapely.box(-0.15, 0, 0, 3), shapely.box(4, 0, 4.15, 3)]
+    cells = cellset_from_polygons(polys, (Z0, Z1))
+
+    def grid(u0, u1, v0, v1, step=0.02):
+        u, v = np.meshgrid(np.arange(u0 + step / 2, u1, step), np.arange(v0 + step / 2, v1, step))
+        return u.ravel(), v.ravel()
+
+    x, y = grid(0, 4, 0, 3)
+    inside = shapely.contains_xy(room, x, y)
+    hor = [np.c_[x[inside], y[inside], np.full(inside.sum(), z)] for z in (Z0, Z1)]
+    u, z = grid(0, 4, Z0, Z1)
+    v, zv = grid(0, 3, Z0, Z1)
+    wall = [np.c_[u, np.zeros_like(u), z], np.c_[np.zeros_like(v), v, zv],  # south, west
+            np.c_[np.full((v < 3 - s).sum(), 4.0), v[v < 3 - s], zv[v < 3 - s]],  # east, up to the cupboard
+            np.c_[u[u < 4 - s], np.full((u < 4 - s).sum(), 3.0), z[u < 4 - s]]]  # north, up to it
+    t, zt = grid(0, s * math.sqrt(2), Z0, Z1)
+    front = t[:, None] * np.array([1.0, -1.0]) / math.sqrt(2) + [4 - s, 3]
+    top = Z1 if case == "notch" else Z1 - 0.5  # a wall to the ceiling; a cupboard under the band
+    keep = zt < top
+    wall.append(np.c_[front[keep], zt[keep]])
+    cov = measure_coverage(cells, np.vstack(wall), np.vstack(hor))
+    st = SpaceSearch(cells, cov, RjmcmcParams())
+    assert st.covered[0] and not st.covered[1]
+    st.set_model([[0]])
+    st.absorb_covered()
+    assert st.model() == ((0,),)  # neither covered nor walled in: the old rules left it out
+    added = st.fill_corners()
+    assert st.model() == (((0, 1),) if case == "cupboard" else ((0,),)), (case, st.model())
+    assert added == (1 if case == "cupboard" else 0)
