@@ -65,7 +65,7 @@ from .ends import UpperBand, free_wall_ends, heal_split_cells
 from .geometry import box_of
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
-from .passages import doorway_tops, enclosed_pockets, furniture_strips, wide_passages
+from .passages import _SIDES, doorway_tops, enclosed_pockets, furniture_strips, wide_passages
 from .place import (StoreyFrame, detect_levels, given_frame, histogram_peaks, paired_faces, storey_chunks,
                     storey_frame)
 from .extent import FAR_POINTS, cell_lookup, closing_wall, scan_lines, seen_extent
@@ -514,20 +514,19 @@ def _open_voids(shapes: dict, types: np.ndarray, xyz: np.ndarray, normals: np.nd
         ax = s.attributes.get("thin_axis")
         if ax not in (0, 1) or max(s.support.get(f"ipof_f{f}", 0.0) for f in ((3, 5), (2, 4))[ax]) >= tau:
             continue
-        beside = [(i - 1, j), (i + 1, j)] if ax == 0 else [(i, j - 1), (i, j + 1)]
+        beside = _across((i, j), ax)
         room = [0 <= q[0] < nx and 0 <= q[1] < ny and types[q[0], q[1], k] == ShapeType.INTERIOR
                 for q in beside]
         if any(q in open_up for q in beside) and all(q in open_up or r for q, r in zip(beside, room)):
             open_up.add((i, j))
     closed_types = (ShapeType.INTERIOR, ShapeType.WALL)
-    sides = ((2, 0, -1), (3, 1, 0), (4, 0, 1), (5, -1, 0))  # face index, di, dj
     changed = True
     while changed:
         changed = False
         for (i, j) in sorted(open_up):
             sup = shapes[(i, j, k)].support
             thin = shapes[(i, j, k)].attributes.get("thin_axis")
-            for f, di, dj in sides:
+            for f, di, dj in _SIDES:
                 if sup.get(f"ipof_f{f}", 0.0) >= tau or _seen_beside(shapes, (i, j, k), f, thin, tau):
                     continue
                 q = (i + di, j + dj)
@@ -556,9 +555,15 @@ def _seen_beside(shapes: dict, key: tuple, f: int, thin, tau: float) -> bool:
     room's wall line: 0.26 of a 12 cm strip of the exterior wall seen, 0.75 and 0.88 beside it)."""
     if thin not in (0, 1) or (f in (3, 5)) == (thin == 0):
         return False
-    i, j, k = key
-    beside = [(i - 1, j, k), (i + 1, j, k)] if thin == 0 else [(i, j - 1, k), (i, j + 1, k)]
-    return all(q in shapes and shapes[q].support.get(f"ipof_f{f}", 0.0) >= tau for q in beside)
+    return all(q in shapes and shapes[q].support.get(f"ipof_f{f}", 0.0) >= tau for q in _across(key, thin))
+
+
+def _across(key: tuple, axis: int) -> list:
+    """The two grid keys (i, j[, k]) either side of ``key`` along ``axis`` (0: i, 1: j)."""
+    lo, hi = list(key), list(key)
+    lo[axis] -= 1
+    hi[axis] += 1
+    return [tuple(lo), tuple(hi)]
 
 
 # --------------------------------------------------------------------------- the procedure

@@ -28,12 +28,11 @@ import numpy as np
 from ..model import ShapeType, Storey
 from .ipof import grid_face_index
 from .params import ManhattanParams
+from .passages import _SIDES
 from .place import StoreyFrame
 
 __all__ = ["Views", "seen_through"]
 
-_SIDES = ((2, 0, -1), (3, 1, 0), (4, 0, 1), (5, -1, 0))
-"""Side faces of a cuboid: (face index, di, dj) of the neighbour across it."""
 _OPPOSITE = {2: 4, 3: 5, 4: 2, 5: 3}
 
 
