@@ -28,10 +28,18 @@ def _wall_lines(st, sid: int) -> np.ndarray:
     return np.array(rows, dtype=np.float64).reshape(-1, 3)
 
 
+def _room_lines(st, sid: int, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_wall_lines` of space ``sid`` and (k,) bool which of them have the whole space
+    on their side (within ``tol`` m): its walls, not a cupboard's front beside it."""
+    lines = _wall_lines(st, sid)
+    v = np.vstack([st.verts[c] for c in st.spaces[sid]])
+    return lines, np.all(v @ lines[:, :2].T <= lines[:, 2] + tol, axis=0)
+
+
 def _on(st, fi: int, lines: np.ndarray, tol: float = 0.02) -> np.ndarray:
     """(k,) bool: which of ``lines`` every (non-degenerate) segment of face ``fi`` lies on
     (within ``tol`` m)."""
-    out = np.zeros(len(lines), bool) if not len(st.cells.faces[fi].segments) else None
+    out = None
     for p, q in st.cells.faces[fi].segments:
         if float(np.hypot(*(q - p))) <= tol:
             continue
@@ -58,11 +66,10 @@ def fill_corners(st, tol: float = 0.05) -> int:
         return 0
     seen, added = st.cov.seen, 0
     for sid in sorted(st.spaces):
-        lines, done = _wall_lines(st, sid), set()
+        lines, walls = _room_lines(st, sid, tol)
+        done = set()
         if not len(lines):
             continue
-        v0 = np.vstack([st.verts[c] for c in st.spaces[sid]])
-        walls = np.all(v0 @ lines[:, :2].T <= lines[:, 2] + tol, axis=0)  # the room on one side
         for c0 in sorted({o for c in st.spaces[sid] for o in st.nbrs[c]}):
             if c0 in done or st.space_of[c0] >= 0 or st.covered[c0]:
                 continue
@@ -104,7 +111,5 @@ def fill_corners(st, tol: float = 0.05) -> int:
             st.apply([sid], [grown])
             added += len(group)
             sid = int(st.space_of[c0])
-            lines = _wall_lines(st, sid)
-            v0 = np.vstack([st.verts[c] for c in st.spaces[sid]])
-            walls = np.all(v0 @ lines[:, :2].T <= lines[:, 2] + tol, axis=0)
+            lines, walls = _room_lines(st, sid, tol)
     return added
