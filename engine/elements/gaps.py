@@ -12,8 +12,8 @@ from scipy import ndimage
 
 from .params import OpeningParams
 
-__all__ = ["banded", "leaf_needed", "box_sum", "face_present", "mask_runs", "observed_columns",
-           "gap_rectangles", "hole_edge", "near_points", "on_solid"]
+__all__ = ["banded", "hole_deficit", "leaf_needed", "box_sum", "face_present", "mask_runs",
+           "observed_columns", "gap_rectangles", "hole_edge", "near_points", "on_solid"]
 
 
 def box_sum(a: np.ndarray, k: int) -> np.ndarray:
@@ -235,6 +235,27 @@ def banded(face: np.ndarray, a: int, b: int, lo: int, hi: int, rb: int, p) -> bo
     face = face[:, cols].sum(axis=0)  # both faces
     rows = face[:, lo:hi].mean()
     return bool(rows < p.band_share * face[:, rb:max(rb + 1, nz - rb)].mean())
+
+
+def hole_deficit(face: np.ndarray, a: int, b: int, lo: int, hi: int, p) -> float:
+    """Face points missing over columns ``a:b``, rows ``lo:hi`` of a face (``face``: (nu, nz)
+    counts): what the face holds per cell in the same rows within ``band_flank`` beside the
+    hole, times the hole's columns, less what the hole holds.
+
+    - Row by row, so that a mobile scanner's lines (bands of rows the face is sampled in, bands
+      it is not) expect points only where a line crosses the hole.
+    - By the sparser of the two flanks (one at least half as wide as ``band_flank``; 0 without
+      one): a scanner passing close to one flank samples it far more densely than the hole."""
+    f = int(round(p.band_flank / p.cell))
+    nu = face.shape[0]
+    if hi <= lo or b <= a:
+        return 0.0
+    flanks = [face[c0:c1, lo:hi] for c0, c1 in ((max(0, a - f), a), (b, min(nu, b + f)))
+              if 2 * (c1 - c0) >= f]
+    if not flanks:
+        return 0.0
+    expected = min(float(fl.mean(axis=0).sum()) for fl in flanks) * (b - a)
+    return expected - float(face[a:b, lo:hi].sum())
 
 
 def leaf_needed(face: np.ndarray, a: int, b: int, lo: int, hi: int, p) -> float:

@@ -37,8 +37,8 @@ from ..errors import InputError
 from ..geometry.boxes import column_max, column_min, min_area_box
 from ..geometry.sort import stable_argsort
 from ..model import Polyhedron, Shape, ShapeType, Storey
-from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_edge, leaf_columns, leaf_needed,
-                   leaf_to_floor, near_points, observed_columns, on_solid)
+from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_deficit, hole_edge, leaf_columns,
+                   leaf_needed, leaf_to_floor, near_points, observed_columns, on_solid)
 from .junctions import hidden_columns
 from .leaves import flush_leaves
 from .overlap import admit, overlap
@@ -476,8 +476,9 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     Confidence: up to 0.5 for rays seen through it, 0.25 for a gap on both faces of an
     interior wall, 0.2 for an unshadowed hole in an exterior wall, 0.15 each for floor points
     through the thickness and for reveals, 0.2 (no scanners, exterior wall) for points
-    beyond it, 0.45 for a closed door's leaf; less the shadowed share times the share of its edges
-    without reveals (or, without scanners, the covered share)."""
+    beyond it, 0.15 (a window in an exterior wall) for the face points the hole lacks on an
+    observed face (``hole_points``), 0.45 for a closed door's leaf; less the shadowed share
+    times the share of its edges without reveals (or, without scanners, the covered share)."""
     c = p.cell
     nu, nz = dd.face.shape[1:]
     rb = int(math.ceil(p.edge_band / c))
@@ -569,6 +570,11 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     conf = w_through * min(1.0, f_through / (2 * p.min_seen_through)) * dd.rays
     conf += 0.25 * both + 0.2 * (w.external and not occluded and side is None)
     conf += 0.15 * min(1.0, f_floor / p.cue_share) + 0.15 * min(1.0, f_reveal / p.reveal_share)
+    # a window in an exterior wall: the face's own density beside the hole, row by row, says
+    # how sure its emptiness is (nothing beyond may return a point: the sky, an empty street)
+    missing = max([hole_deficit(dd.face[s], a, b, lo, hi, p) for s in (0, 1) if s not in outer
+                   and obs[s][a:b].mean() > 0.5], default=0.0) if kind == "window" and w.external else 0.0
+    conf += 0.15 * min(1.0, max(0.0, missing / p.hole_points))
     conf += 0.2 * min(1.0, n_beyond / 20.0) * (not dd.rays or dd.stand_in) * w.external + 0.45 * closed
     # a shadow over a hole whose jambs and head stand inside the thickness hides part of a real
     # opening: it weighs only as far as the reveals leave the hole unconfirmed
@@ -587,7 +593,7 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
             "support": {"seen_through": f_through, "occluded": f_occ if dd.rays else f_front,
                         "points_beyond": n_beyond, "floor_points": float(dd.floor[a:b].sum()),
                         "threshold_share": f_floor, "reveal_share": f_reveal,
-                        "both_faces": float(both), "leaf_share": f_leaf}}
+                        "both_faces": float(both), "leaf_share": f_leaf, "missing_points": missing}}
 
 
 # ----------------------------------------------------------------------------- entry point

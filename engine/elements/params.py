@@ -109,6 +109,10 @@ class OpeningParams:
     band_share: Ratio = 0.3
     """... and lines of sight through it prove nothing when those rows hold less than this
     share of the face's density there over its height (a band between a scanner's lines)."""
+    hole_points: Factor = 20.0
+    """A hole whose face would hold this many more points, by the face's density in the same
+    rows beside it (:func:`engine.elements.gaps.hole_deficit`), gets the full cue of a
+    missing face."""
     min_confidence: Ratio = 0.3
     """Gaps with less confidence are dropped."""
     junction_depth: Metres = 0.1

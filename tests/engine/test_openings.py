@@ -941,3 +941,46 @@ def test_a_door_beside_a_low_window_splits_despite_a_stray_column():
     bottom[40:50] = 0.01  # ten floor columns inside the sill's stretch: no single cut
     assert split_by_bottom(SimpleNamespace(bottom=bottom, floor=np.where(bottom < p.min_sill, 1.0, 0.0)),
                            (10, 68, 3, 48), p) == [(10, 68, 3, 48)]
+
+
+def _banded_window_to_the_sky(hole, seed: int, rays: bool, near: bool = False):
+    """Openings of a 0.3 m exterior wall (a window ``hole``, or none) with nothing beyond it,
+    seen as a sparse mobile scan sees it: lines 3 cm tall every 30 cm up the wall and 30 % of
+    their points, of the window's reveals a tenth of that. ``near``: the scanner also passes 0.6 m from the wall's left third and
+    samples it densely (every 10 cm) there, as a walk close to one flank of a window does."""
+    wall = _holed_wall(T_EXT, hole) if hole else [((0, -T_EXT / 2, 0), (L, T_EXT / 2, H))]
+    boxes = _room(T_EXT / 2, 4.0) + wall
+    walls = [_wall("w_ext", 0.0, 0.0, L, T_EXT, ("room_a", None), True)]
+    scanners = [(1.0, 2.5, 1.5), (3.6, 1.8, 1.5)]
+    xyz, idx, pos = _scan(boxes, scanners)
+    rng = np.random.default_rng(seed)
+    z = xyz[:, 2] - FLOOR
+    uv = xyz[:, :2] - OFFSET
+    u = uv[:, 0] * math.cos(ANGLE) + uv[:, 1] * math.sin(ANGLE)
+    v = -uv[:, 0] * math.sin(ANGLE) + uv[:, 1] * math.cos(ANGLE)
+    k = (rng.random(len(xyz)) < 0.3) & (((z + seed * 0.07) % 0.3) < 0.03)
+    k &= (np.abs(v) > T_EXT / 2 - 0.02) | (rng.random(len(xyz)) < 0.1)  # reveals seen grazing: few
+    if near:
+        k |= (rng.random(len(xyz)) < 0.3) & (((z + seed * 0.07) % 0.1) < 0.03) & (u < 1.6)
+    ops = detect_openings(walls, [STOREY], xyz[k], scan_index=idx[k] if rays else None,
+                          scanner_positions=pos if rays else None, exterior_ids={0: "out"})
+    return [(o.attributes["kind"], round(o.attributes["sill"], 2), round(o.attributes["width"], 2),
+             round(_centre_u(o), 2)) for o in ops]
+
+
+@pytest.mark.parametrize("rays", [True, False])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_window_to_the_sky_in_sparse_lines_is_a_window(rays, seed):
+    """A mobile scan at 100k points samples a face in lines 30-45 cm apart, a window's jambs,
+    sill and head hardly at all, and nothing beyond it returns a point: only the face's own
+    lines, empty across the hole where they are full beside it, show the hole (two_storey_office
+    mobile: 13-20 of 22 windows found). Judged row by row against the sparser flank, the hole
+    is a window; the wall without it, or with a flank sampled three times as densely from
+    close by, has none."""
+    hole = (1.8, 3.0, 0.9, 2.3)
+    win = _banded_window_to_the_sky(hole, seed, rays)
+    assert [w[0] for w in win] == ["window"], win
+    # the sill and head are known to a line's spacing (0.3 m), the jambs to a few centimetres
+    assert abs(win[0][3] - 2.4) <= 0.1 and abs(win[0][2] - 1.2) <= 0.1 and abs(win[0][1] - 0.9) <= 0.3, win
+    assert _banded_window_to_the_sky(None, seed, rays) == []
+    assert _banded_window_to_the_sky(None, seed, rays, near=True) == []
