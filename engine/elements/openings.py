@@ -765,9 +765,9 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
                     o[side] = min(o["u1"], cut) if side == "u1" else max(o["u0"], cut)
                     o["width"] = o["u1"] - o["u0"]
             for o in judged:
-                found = admit(found, o, p.abut)
+                found = admit(found, o, p.abut, p.abut_share)
         for o in flush_leaves(dd.fu, dd.fz, dd.fcls, dd.fdev, w.sides, w.length, w.floor_z, w.ceiling_z, tol, p):
-            if not any(overlap(o, f, p.abut) for f in found):
+            if not any(overlap(o, f, p.abut, p.abut_share) for f in found):
                 found.append(o)
         ext = exterior_ids.get(w.shape.storey, f"exterior_s{w.shape.storey}")
         for j, o in enumerate(sorted(found, key=lambda f: f["u0"])):

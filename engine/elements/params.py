@@ -50,7 +50,11 @@ class OpeningParams:
     abut: Metres = 0.05
     """Two openings overlapping by at most this much across one edge are neighbours (two
     windows measured from the mullion or transom between them), not one found twice; they
-    are trimmed to meet halfway, metres."""
+    are trimmed to meet halfway, metres ..."""
+    abut_share: Ratio = 0.1
+    """... or by at most this share of the narrower one's width (the lower one's height):
+    each is measured into the mullion or pier between them, which may be wider (the Duplex's
+    stair-hall panes, 10 cm from a 2.8 m window: 6 cm of overlap)."""
     min_door_width: Metres = 0.6
     """Narrower gaps reaching the floor are not doors, metres."""
     max_door_width: Metres = 2.0

@@ -444,6 +444,30 @@ def test_openings_sharing_a_mullion_or_transom_meet_halfway():
     assert not _overlap(win(1.0, 2.0, 0.9, 1.4), win(2.5, 3.0, 0.9, 1.4), 0.05)  # apart
 
 
+
+def test_a_pane_beside_a_wide_window_across_a_pier_is_its_neighbour():
+    """The Duplex's stair-hall panes (0.82 m) stand 10 cm from a 2.8 m window; each hole is
+    measured into the pier from its side, 6 cm of overlap: over the 5 cm of ``abut``, so the
+    panes were dropped as the big window found twice (3 of 22 windows on terrestrial seed 4).
+    A tenth of the narrower one's width (``abut_share``) keeps both, trimmed to meet halfway;
+    the same overlap between two readings of a 0.4 m hole is still one hole."""
+    from engine.elements.overlap import admit
+
+    p = OpeningParams()
+
+    def win(u0, u1, sill, height, conf=0.9):
+        return {"u0": u0, "u1": u1, "width": u1 - u0, "sill": sill, "height": height, "kind": "window",
+                "confidence": conf}
+
+    big = win(0.03, 2.932, 0.11, 2.35)
+    panes = [win(2.869, 3.749, 0.11, 0.72), win(2.87, 3.749, 0.91, 0.8), win(3.1, 3.55, 1.73, 0.75)]
+    found = [big]
+    for o in panes:
+        found = admit(found, o, p.abut, p.abut_share)
+    assert len(found) == 4, found
+    assert 2.869 < big["u1"] < 2.932 and all(pn["u0"] >= big["u1"] - 1e-9 for pn in panes), found
+    assert len(admit([win(1.0, 1.4, 0.9, 1.0)], win(1.34, 1.74, 0.9, 1.0), p.abut, p.abut_share)) == 1
+
 def test_of_two_readings_of_one_hole_the_better_supported_stays():
     """office_mw mobile, 100k points, seed 5: a closed door (its leaf 4.5 cm behind one face)
     was read first as a gap on both faces at the scanner's own height (a band between its
