@@ -39,7 +39,7 @@ from ..geometry.sort import stable_argsort
 from ..model import Polyhedron, Shape, ShapeType, Storey
 from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_deficit, hole_edge, leaf_columns,
                    leaf_needed, leaf_to_floor, near_points, observed_columns, on_solid)
-from .junctions import hidden_columns
+from .junctions import clear_of, hidden_columns
 from .leaves import flush_leaves
 from .overlap import admit, overlap
 from .params import OpeningParams
@@ -197,6 +197,7 @@ class _Data:
     scans: list                # per side: face points per scanner
     rays: bool = False
     stand_in: bool = False     # the rays come from stand-in scanners (lines of sight), not a scan
+    hidden: np.ndarray = None  # (nu,) columns where another wall stands against a face
 
 
 def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_count, tol: float,
@@ -426,6 +427,8 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol)
     el = max(ul - c if el is None else max(el, ul - srch), 0.0)  # not past the run's ends
     er = min(ur + c if er is None else min(er, ur + srch), w.length)
+    if dd.hidden is not None:  # ... nor into a wall standing against a face
+        el, er = clear_of(dd.hidden, el, er, c0, c1, c)
     if er <= el:
         return None
     et = z1 if ceil_reach else hole_edge(fz, fu, fin, zt - c, zt + srch, el + 0.05, er - 0.05, False, tol)
@@ -755,6 +758,7 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
     hidden = hidden_columns(frames, p.cell, p.junction_depth)
     for w, dd, hid in zip(frames, data, hidden):
         rects, obs = _gap_rects(dd, p, w.external, hid)
+        dd.hidden = hid[0] | hid[1]
         found: list[dict] = []
         for rect, mode in sorted(rects, key=lambda r: r[1] != "both"):
             parts = split_by_bottom(dd, rect, p) if mode == "both" else [rect]
