@@ -573,10 +573,11 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     conf = w_through * min(1.0, f_through / (2 * p.min_seen_through)) * dd.rays
     conf += 0.25 * both + 0.2 * (w.external and not occluded and side is None)
     conf += 0.15 * min(1.0, f_floor / p.cue_share) + 0.15 * min(1.0, f_reveal / p.reveal_share)
-    # a window in an exterior wall: the face's own density beside the hole, row by row, says
-    # how sure its emptiness is (nothing beyond may return a point: the sky, an empty street)
-    missing = max([hole_deficit(dd.face[s], a, b, lo, hi, p) for s in (0, 1) if s not in outer
-                   and obs[s][a:b].mean() > 0.5], default=0.0) if kind == "window" and w.external else 0.0
+    missing = 0.0
+    if kind == "window" and w.external:  # the face's own density beside the hole, row by row,
+        # says how sure its emptiness is (nothing beyond may return a point: the sky, a street)
+        missing = max([hole_deficit(dd.face[s], a, b, lo, hi, p) for s in _inner_faces(obs, a, b, outer)],
+                      default=0.0)
     conf += 0.15 * min(1.0, max(0.0, missing / p.hole_points))
     conf += 0.2 * min(1.0, n_beyond / 20.0) * (not dd.rays or dd.stand_in) * w.external + 0.45 * closed
     # a shadow over a hole whose jambs and head stand inside the thickness hides part of a real
