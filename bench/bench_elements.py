@@ -43,7 +43,7 @@ POINTS, QUICK_POINTS = 300_000, 100_000
 
 COLUMNS = ("scene", "noise", "seed", "pts", "rec s", "doors T/F/M", "door P/R/F1", "dW cm mean/max",
            "win T/F/M", "win F1", "ext cov ext/any", "slabs F/C", "rooms M/T/=", "walls m/runs",
-           "graph =/−/+")
+           "graph =/−/+", "wW cm mean/max")
 
 
 def _scene(name: str, seed: int, noise: str, points: int):
@@ -123,6 +123,7 @@ def table_row(r: dict) -> str:
         + ("" if sp["model_rooms"] == sp["model"] else f" ({sp['model']} spaces)"),
         f"{wa['model']}/{wa['truth_runs']}",
         f"{'yes' if c['equal'] else 'no'}/{len(c['missing'])}/{len(c['extra'])}",
+        f"{_f(w['width_error_mean'], 1, 100)}/{_f(w['width_error_max'], 1, 100)}",
     ]
     return "| " + " | ".join(cells) + " |"
 
