@@ -8,6 +8,7 @@ import math
 from typing import Optional
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from scipy import ndimage
 
 from .params import OpeningParams
@@ -170,17 +171,62 @@ def gap_rectangles(mask: np.ndarray, p: OpeningParams, solid: Optional[np.ndarra
     return _merge(rects, bridge, solid)
 
 
-def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 0.0) -> Optional[float]:
+def _outermost_line(rev, oth, ctr: float, take_max: bool, span: float, ends_face) -> float:
+    """The jamb in front of a reveal plane at ``ctr``: a frame or lining set into the hole
+    shows a denser plane than the wall's own reveal before it (FZK-Haus: the windows' frames
+    7.5 cm inside the hole, the reveal seen by one scan line, windows 15 cm narrow). The
+    outermost line of at least four points (a tenth of the reveal's) within 1 cm, across
+    ``span`` of the band, 3.5 cm or more out from the plane (a mobile scan's noise about a
+    jamb stays within that) and ending the face; else ``ctr``."""
+    o = np.argsort(rev)
+    rs, ro = rev[o], oth[o]
+    n = max(4, int(math.ceil(0.1 * len(rs))))
+    if len(rs) < n:
+        return ctr
+    wu, wo = sliding_window_view(rs, n), sliding_window_view(ro, n)
+    cand = np.median(wu, axis=1)
+    out = (cand <= ctr - 0.035) if take_max else (cand >= ctr + 0.035)
+    ok = np.flatnonzero((wu[:, -1] - wu[:, 0] <= 0.01) & (np.ptp(wo, axis=1) >= span) & out)
+    for j in (ok if take_max else ok[::-1]):  # from the outermost
+        into, back = ends_face(float(cand[j]), 0.04)
+        if into <= 0.25 * back + 1:
+            return float(cand[j])
+    return ctr
+
+
+def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 0.0,
+              proud: Optional[np.ndarray] = None) -> Optional[float]:
     """Where the wall ends in ``coord`` within [lo, hi] (``other`` within [olo, ohi]): the
     median of the ``inside`` points of a reveal (a dense plane across the thickness, 1 cm
     histogram peak; looked for ``inward`` metres — the faces' noise tolerance — further into
-    the hole too: a jamb on the candidate's cell edge falls either side of it), else where
-    the face points end (a few strays beyond)."""
+    the hole too: a jamb on the candidate's cell edge falls either side of it; or, with fewer
+    than six points, one scan line along the edge: four within 1 cm across a third of the
+    band), else where the face points end (a few strays beyond) plus the gap expected there."""
     band = (other >= olo) & (other <= ohi)
     m = (coord >= lo) & (coord <= hi) & band
     ext = 0.01 * math.ceil(inward / 0.01 - 1e-9)  # whole 1 cm bins: the histogram keeps its grid
     r_lo, r_hi = (lo, hi + ext) if take_max else (lo - ext, hi)
-    rev = coord[(coord >= r_lo) & (coord <= r_hi) & band & inside]
+    in_rev = (coord >= r_lo) & (coord <= r_hi) & band & inside
+    rev = coord[in_rev]
+    face = coord[band & ~inside]
+
+    def ends_face(ctr: float, near: float) -> tuple[int, int]:
+        # face points beyond ``near`` into the hole and behind: a jamb ends the face
+        d = (face - ctr) if take_max else (ctr - face)  # > 0: into the hole
+        return int(((d > near) & (d < 0.30)).sum()), int(((d < -near) & (d > -0.30)).sum())
+
+    if 4 <= len(rev) < 6:
+        # a terrestrial scanner's vertical line on a jamb (a horizontal one on a sill): too
+        # few points for the histogram, but in one line along the edge, not strays — nor a
+        # line inside the wall's body with the face running on past it (a partition's end)
+        o = np.argsort(rev)
+        rs, ro = rev[o], other[in_rev][o]
+        j = int(np.argmin(rs[3:] - rs[:-3]))
+        ctr = float(np.median(rs[j:j + 4]))
+        into, back = ends_face(ctr, 0.04)  # past a casing or lining
+        if (rs[j + 3] - rs[j] <= 0.01 and np.ptp(ro[j:j + 4]) >= 0.3 * (ohi - olo) and lo <= ctr <= hi
+                and into <= 0.25 * back + 1):
+            return ctr
     if len(rev) >= 6:
         hist, edges = np.histogram(rev, np.arange(r_lo, r_hi + 0.01, 0.01))
         # the bar is the mean over [lo, hi]'s bins: searching further in must not lower it
@@ -195,16 +241,13 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
                 # half of it does behind (a mobile scan's σ 2 cm puts a few face points into
                 # the thickness: six in one window read as a jamb 24 cm beyond the true one,
                 # house_multi_height mobile 4)
-                face = coord[band & ~inside]
-                d = (face - ctr) if take_max else (ctr - face)  # > 0: into the hole
-                into, back = int(((d > 0.10) & (d < 0.30)).sum()), int(((d < -0.10) & (d > -0.30)).sum())
+                into, back = ends_face(ctr, 0.10)
                 if not (into >= 10 and into > 0.5 * back):
-                    return ctr
+                    return _outermost_line(rev, other[in_rev], ctr, take_max, 0.3 * (ohi - olo), ends_face)
     # walking from the face into the hole, the face ends at the first gap much wider than
-    # the spacing of the points before it, with only strays (a tenth) beyond; the last
-    # point falls short of the end by about one spacing
+    # the spacing of the points before it, with only strays (a tenth) beyond
     m &= ~inside  # glazing and leaves stand in the hole: only the faces end at its edge
-    if m.sum() < 2:
+    if not m.any():
         return None
     x = np.sort(coord[m] - lo if take_max else hi - coord[m])
     n = len(x)
@@ -213,7 +256,21 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
     gap = np.append(np.diff(x), np.inf)
     end = np.flatnonzero((gap > np.maximum(4 * sp, 0.03)) & (i >= min(2, n - 1)) & (i >= 0.9 * n - 1))
     k = int(end[0]) if len(end) else n - 1
-    e = min(float(x[k] + sp[k]), hi - lo)
+    # the last point falls short of the edge by the gap expected at a random place of the
+    # sampling pattern, Σg² / 2Σg over the face's points up to 0.5 m behind it: half the
+    # spacing of scan lines along the edge (a terrestrial scanner's columns beside a jamb,
+    # 10-30 cm apart at 100k points: the mean gap between points, which the columns' own
+    # points make small, read windows 5 cm too wide on average, up to 17), next to nothing
+    # where lines run across the edge up to it
+    f = band & ~inside
+    xa = coord[f] - lo if take_max else hi - coord[f]
+    g = np.diff(np.sort(xa[(xa <= x[k] + 1e-9) & (xa >= x[k] - 0.5)]))
+    after = float((g * g).sum() / (2.0 * g.sum())) if len(g) >= 2 and g.sum() > 0 else float(sp[k])
+    if proud is not None:
+        xp = coord[m & proud] - lo if take_max else hi - coord[m & proud]
+        if (xp >= x[k] - 0.01).any():
+            after = float(sp[k])
+    e = min(float(x[k] + after), hi - lo)
     return lo + e if take_max else hi - e
 
 

@@ -422,18 +422,20 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     if leafy:
         keep &= cls != 2
     fu, fz, fin = dd.fu[keep], dd.fz[keep], cls[keep] == 2
+    proud = dd.fdev[keep] < -min(tol, 0.45 * (w.faces[0] - w.faces[1]))  # a casing's
     zlo, zhi = (z0 + p.edge_band if floor_reach else zb) + 0.05, zt - 0.05
-    el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol)
-    er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol)
+    el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol, proud)
+    er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol, proud)
     el = max(ul - c if el is None else max(el, ul - srch), 0.0)  # not past the run's ends
     er = min(ur + c if er is None else min(er, ur + srch), w.length)
     if dd.hidden is not None:  # ... nor into a wall standing against a face
         el, er = clear_of(dd.hidden, el, er, c0, c1, c)
     if er <= el:
         return None
-    et = z1 if ceil_reach else hole_edge(fz, fu, fin, zt - c, zt + srch, el + 0.05, er - 0.05, False, tol)
+    across = (el + 0.05, er - 0.05)
+    et = z1 if ceil_reach else hole_edge(fz, fu, fin, zt - c, zt + srch, *across, False, tol, proud)
     et = zt + c if et is None else et
-    eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, el + 0.05, er - 0.05, True, tol)
+    eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, *across, True, tol, proud)
     eb = zb - c if eb is None else eb
     width = er - el
     if floor_reach and side is None and not leafy:
