@@ -570,8 +570,12 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     # room beyond has its own scanners, and a strip the scan sampled thinly (a mobile
     # scanner's lines) is a gap too; outside an exterior wall only openings let rays reach
     w_through = 0.5
-    if dd.stand_in and not w.external:  # ... and only with a threshold or reveals to show for it
-        w_through = 0.25 * min(1.0, f_floor / p.cue_share + f_reveal / p.reveal_share)
+    if dd.stand_in and not w.external:  # ... and only with a threshold or reveals to show for it;
+        # reveals only where both faces show the gap: with one face hidden all along (cabinets
+        # against a partition on both sides), the "reveals" may be the cabinets' sides inside
+        # a wall the model drew too thick (two_storey_office mobile 3 at 300k: a 2 m "door")
+        backed = f_reveal / p.reveal_share if min(obs[0][a:b].mean(), obs[1][a:b].mean()) > 0.5 else 0.0
+        w_through = 0.25 * min(1.0, f_floor / p.cue_share + backed)
     conf = w_through * min(1.0, f_through / (2 * p.min_seen_through)) * dd.rays
     conf += 0.25 * both + 0.2 * (w.external and not occluded and side is None)
     conf += 0.15 * min(1.0, f_floor / p.cue_share) + 0.15 * min(1.0, f_reveal / p.reveal_share)
