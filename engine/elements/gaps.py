@@ -171,6 +171,15 @@ def gap_rectangles(mask: np.ndarray, p: OpeningParams, solid: Optional[np.ndarra
     return _merge(rects, bridge, solid)
 
 
+def _lines(rev, oth, n: int, span: float):
+    """Lines of ``n`` points along an edge among the reveal points ``rev`` (sorted): each run
+    of ``n`` consecutive values, its median, its extent in ``rev`` and whether it spreads over
+    ``span`` of the other coordinate ``oth``."""
+    o = np.argsort(rev)
+    wu, wo = sliding_window_view(rev[o], n), sliding_window_view(oth[o], n)
+    return np.median(wu, axis=1), wu[:, -1] - wu[:, 0], np.ptp(wo, axis=1) >= span
+
+
 def _outermost_line(rev, oth, ctr: float, take_max: bool, span: float, ends_face) -> float:
     """The jamb in front of a reveal plane at ``ctr``: a frame or lining set into the hole
     shows a denser plane than the wall's own reveal before it (FZK-Haus: the windows' frames
@@ -178,15 +187,12 @@ def _outermost_line(rev, oth, ctr: float, take_max: bool, span: float, ends_face
     outermost line of at least four points (a tenth of the reveal's) within 1 cm, across
     ``span`` of the band, 3.5 cm or more out from the plane (a mobile scan's noise about a
     jamb stays within that) and ending the face; else ``ctr``."""
-    o = np.argsort(rev)
-    rs, ro = rev[o], oth[o]
-    n = max(4, int(math.ceil(0.1 * len(rs))))
-    if len(rs) < n:
+    n = max(4, int(math.ceil(0.1 * len(rev))))
+    if len(rev) < n:
         return ctr
-    wu, wo = sliding_window_view(rs, n), sliding_window_view(ro, n)
-    cand = np.median(wu, axis=1)
+    cand, extent, spread = _lines(rev, oth, n, span)
     out = (cand <= ctr - 0.035) if take_max else (cand >= ctr + 0.035)
-    ok = np.flatnonzero((wu[:, -1] - wu[:, 0] <= 0.01) & (np.ptp(wo, axis=1) >= span) & out)
+    ok = np.flatnonzero((extent <= 0.01) & spread & out)
     for j in (ok if take_max else ok[::-1]):  # from the outermost
         into, back = ends_face(float(cand[j]), 0.04)
         if into <= 0.25 * back + 1:
@@ -219,13 +225,11 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
         # a terrestrial scanner's vertical line on a jamb (a horizontal one on a sill): too
         # few points for the histogram, but in one line along the edge, not strays — nor a
         # line inside the wall's body with the face running on past it (a partition's end)
-        o = np.argsort(rev)
-        rs, ro = rev[o], other[in_rev][o]
-        j = int(np.argmin(rs[3:] - rs[:-3]))
-        ctr = float(np.median(rs[j:j + 4]))
+        cand, extent, spread = _lines(rev, other[in_rev], 4, 0.3 * (ohi - olo))
+        j = int(np.argmin(extent))
+        ctr = float(cand[j])
         into, back = ends_face(ctr, 0.04)  # past a casing or lining
-        if (rs[j + 3] - rs[j] <= 0.01 and np.ptp(ro[j:j + 4]) >= 0.3 * (ohi - olo) and lo <= ctr <= hi
-                and into <= 0.25 * back + 1):
+        if extent[j] <= 0.01 and spread[j] and lo <= ctr <= hi and into <= 0.25 * back + 1:
             return ctr
     if len(rev) >= 6:
         hist, edges = np.histogram(rev, np.arange(r_lo, r_hi + 0.01, 0.01))
