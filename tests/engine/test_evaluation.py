@@ -247,3 +247,23 @@ def test_open_plan_boundary_partly_walled():
     perimeter, claimed = 2 * (9 + 6), 2 * 3.0
     assert abs(res.curve("correctness", "wall")[-1] - perimeter / (perimeter + claimed)) <= 0.01
     assert res.curve("completeness", "wall")[-1] >= 0.99
+
+
+def test_an_overlap_with_a_folded_sliver_is_still_the_overlap():
+    """A source face cut by an open plan's shared face kept a sliver a few µm thick along its
+    top edge; projected onto a truth face 0.02° off its plane, the sliver folded over itself.
+    GEOS raised nothing and returned a 0.0014 m² overlap for a 10.7 m² face the source covers
+    whole: FZK-Haus mobile completeness 0.95 instead of 0.99, on one CPU and not another. The
+    invalid polygon is repaired before the overlay."""
+    import shapely
+
+    from engine.evaluation.patches import safe_intersection
+
+    folded = shapely.Polygon([(-3.5027655026342552, 1.2500441267681013),
+                              (3.168027412547443, 1.250052183667502),
+                              (2.104593034319091, 1.250050899264896), (0.7869317286855384, 1.250049307810219),
+                              (0.7869346499486038, -1.2500574588340874),
+                              (-3.502762581371189, -1.2500626398762051)])
+    face = shapely.box(-3.5025, -1.25, 0.7875, 1.25)
+    assert not folded.is_valid
+    assert abs(safe_intersection(folded, face).area - face.area) <= 0.01  # before: 0.0014 m²
