@@ -172,9 +172,9 @@ def gap_rectangles(mask: np.ndarray, p: OpeningParams, solid: Optional[np.ndarra
 
 
 def _lines(rev, oth, n: int, span: float):
-    """Lines of ``n`` points along an edge among the reveal points ``rev`` (sorted): each run
-    of ``n`` consecutive values, its median, its extent in ``rev`` and whether it spreads over
-    ``span`` of the other coordinate ``oth``."""
+    """Lines of ``n`` points along an edge among the reveal points ``rev``: each run of ``n``
+    consecutive values once sorted, its median, its extent in ``rev`` and whether it spreads
+    over ``span`` of the other coordinate ``oth``."""
     o = np.argsort(rev)
     wu, wo = sliding_window_view(rev[o], n), sliding_window_view(oth[o], n)
     return np.median(wu, axis=1), wu[:, -1] - wu[:, 0], np.ptp(wo, axis=1) >= span
@@ -266,8 +266,7 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
     # 10-30 cm apart at 100k points: the mean gap between points, which the columns' own
     # points make small, read windows 5 cm too wide on average, up to 17), next to nothing
     # where lines run across the edge up to it
-    f = band & ~inside
-    xa = coord[f] - lo if take_max else hi - coord[f]
+    xa = face - lo if take_max else hi - face
     g = np.diff(np.sort(xa[(xa <= x[k] + 1e-9) & (xa >= x[k] - 0.5)]))
     after = float((g * g).sum() / (2.0 * g.sum())) if len(g) >= 2 and g.sum() > 0 else float(sp[k])
     if proud is not None:
