@@ -290,7 +290,11 @@ def main(argv=None):
 
 if __name__ == "__main__":
     code = main()
-    if code == 130:  # interrupted: end at once (see engine.cli.run), the outputs are complete
+    # Every output is complete and in place (atomic writes): end at once, interrupted (see
+    # engine.cli.run) or not. Tearing down the bpy module frees the scene's million-vertex
+    # mesh and the add-on's data one by one: 0.2 s of a 1M-point batch (bench batch).
+    bpy = sys.modules.get("bpy")
+    if code == 130 or not (bpy and bpy.app.binary_path):  # a real Blender exits by its own path
         sys.stdout.flush()
         sys.stderr.flush()
         logging.shutdown()
