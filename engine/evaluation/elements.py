@@ -44,7 +44,9 @@ figures:
   of them names the model's space); equal, missing and extra edges.
 
 With ``seen`` (the true spaces a scan reaches), storeys without a seen space are not scored
-for exterior walls, slabs, doors and windows, and unseen spaces are neither counted as rooms
+for exterior walls, slabs, doors and windows — save a window standing over a seen room, at
+most 1.5 m above its top (a roof light filed under an unscanned roof level is seen from the
+room under it) — and unseen spaces are neither counted as rooms
 nor part of the outline: a door into one leads outside, to its storey's exterior node (a scan
 sees a door into a closed, unscanned room as a door out of the scanned building).
 
@@ -60,7 +62,7 @@ from typing import Optional
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
-from shapely.geometry import LineString
+from shapely.geometry import LineString, Point
 from shapely.ops import unary_union
 
 from ..errors import InputError
@@ -190,12 +192,25 @@ def _match_centres(a: np.ndarray, b: np.ndarray, tol: float) -> list[tuple[int, 
     return [(int(i), int(j), float(d[i, j])) for i, j in zip(rows, cols) if d[i, j] <= tol]
 
 
+def _over_a_room(o: Shape, rooms: list, truth: BuildingModel, reach: float = 1.5) -> bool:
+    """Whether opening ``o`` stands over one of ``rooms`` (true spaces): its centre inside the
+    room's plan, its bottom at most ``reach`` metres over the room's top (a roof light seen
+    from the room, whatever storey the model files it under)."""
+    c = o.scope.center
+    return any(0.0 <= float(o.bounds[0, 2]) - float(r.bounds[1, 2]) <= reach
+               and _plan(r, truth).contains(Point(c[:2])) for r in rooms)
+
+
 def _opening_scores(model: BuildingModel, truth: BuildingModel, window: bool,
-                    params: ElementMatchParams, storeys: Optional[set] = None) -> dict:
-    """``storeys``: the truth storeys scored (None: all); true openings of others are left out."""
+                    params: ElementMatchParams, storeys: Optional[set] = None,
+                    rooms: Optional[list] = None) -> dict:
+    """``storeys``: the truth storeys scored (None: all); true openings of others are left
+    out, unless they stand over one of ``rooms`` (:func:`_over_a_room`: the Duplex's roof lights,
+    on its unscanned roof level, are seen from the rooms under them)."""
     found, true = _openings(model, window), _openings(truth, window)
     if storeys is not None:
-        true = [s for s in true if _storey_of(s, truth) in storeys]
+        true = [s for s in true
+                if _storey_of(s, truth) in storeys or bool(rooms and _over_a_room(s, rooms, truth))]
     cf = np.array([s.scope.center for s in found]).reshape(-1, 3)
     ct = np.array([s.scope.center for s in true]).reshape(-1, 3)
     pairs = _match_centres(cf, ct, params.centre_tolerance)
@@ -424,7 +439,8 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     seen : set, optional
         Ids of the true spaces the scan reaches (:func:`engine.evaluation.rooms.scanned_spaces`).
         A storey none of whose spaces was seen (an IFC roof level no ray enters) has no
-        exterior boundary, slabs, doors or windows (a roof light) to score; unseen spaces do
+        exterior boundary, slabs, doors or windows to score, save windows over a seen room
+        (a roof light seen from below); unseen spaces do
         not count as rooms to find, nor are they part of a storey's outline (a door into one
         leads to the storey's exterior node of the door graph). None: every space counts.
 
@@ -459,7 +475,7 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
     ious = {t: v for t, v in ious.items() if seen is None or t in seen}
     return {
         "doors": _opening_scores(model, truth, False, params, None if seen is None else scored),
-        "windows": _opening_scores(model, truth, True, params, None if seen is None else scored),
+        "windows": _opening_scores(model, truth, True, params, None if seen is None else scored, rooms),
         "exterior": _exterior_scores(model, truth, outlines, params),
         "slabs": _slab_scores(model, truth, outlines, params),
         "spaces": {"model": len(model.spaces), "model_rooms": plans["model"], "truth": plans["true"],

@@ -392,6 +392,13 @@ def test_outline_spans_party_walls_and_stair_voids_and_skips_unseen_storeys():
     assert evaluate_elements(truth, truth)["windows"]["true"] == 2
     r = evaluate_elements(truth.replace_shapes(remove={"roof_light"}), truth, seen=seen)
     assert r["windows"]["true"] == r["windows"]["matched"] == 1 and r["windows"]["f1"] == 1.0
+    # ... but a roof light right over a seen room (0.4 m over flat B's upstairs ceiling,
+    # filed under the unscanned roof level, as the Duplex's) is seen from that room: it counts
+    sky = Shape("sky", ShapeType.WINDOW, Polyhedron.box((5.5, 2.0, 6.0), (6.6, 3.0, 6.2)), storey=2,
+                terminal=True, attributes={"kind": "window", "width": 1.1})
+    with_sky = truth.with_(shapes=truth.shapes + (sky,))
+    r = evaluate_elements(truth.replace_shapes(remove={"roof_light"}), with_sky, seen=seen)
+    assert r["windows"]["true"] == 2 and r["windows"]["matched"] == 1
     # a room never scanned (flat B upstairs) is no part of the scanned building's outline:
     # flat A and the party wall beside it remain
     b_up = next(s.id for s in truth.spaces if s.name == "B" and s.storey == 1)
