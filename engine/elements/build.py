@@ -25,6 +25,7 @@ from ..geometry.polygon import polygon_parts
 from ..model import BuildingModel, Polyhedron, Relation, Shape, ShapeType
 from .params import ElementsParams, SlabParams
 from .egress import elevated_doors
+from .skylights import host_slab, roof_windows
 from .thickness import PointGrid, reveal_depth
 from .walls import WallRun, space_footprint, wall_runs
 
@@ -239,7 +240,13 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
         new_shapes.append(ext)
         relations.extend(rels)
         storey_geo[k] = geo
-    new_shapes.extend(_slabs(storey_geo, base, prm.slabs))
+    slabs = _slabs(storey_geo, base, prm.slabs)
+    new_shapes.extend(slabs)
+    skylights = []
+    if xyz_model is not None:  # holes in the roof over the rooms
+        rooms = [(r.id, k, fps[r.id]) for k, fps in footprints.items() for r in by_storey[k] if r.id in fps]
+        skylights = roof_windows([s for s in slabs if s.attributes.get("kind") == "roof"], rooms, xyz_model,
+                                 {k: f"exterior_s{k}" for k in storey_geo}, prm.skylights)
     # the method's walls and exteriors become parts
     ext_parent = {sid: f"exterior_s{k}" for k, ids in old_ext.items() for sid in ids if k in storey_geo}
     shapes = []
@@ -254,6 +261,7 @@ def building_elements(model: BuildingModel, cloud=None, params: Optional[Element
     openings = _rehome(old_openings, walls, out)
     # a user's door (or one kept from before) wins over a detection at its place
     openings += [o for o in _rehome(detected, walls, out) if not _overlaps(o, openings)]
+    openings += [o for o in skylights if not _overlaps(o, openings)]
     openings = [_with_spaces(o, out) for o in openings]
     kids = {}
     for o in openings:
@@ -479,7 +487,15 @@ def _rehome(openings: list[Shape], walls: list[Shape], model: BuildingModel) -> 
     box across the new wall's thickness, at its width, sill and height)."""
     out = []
     plans = {w.id: Polygon(w.footprint()) for w in walls} if openings else {}  # once, not per opening
+    slabs = [s for s in model.shapes if s.type == ShapeType.SLAB] if openings else []
     for o in openings:
+        if o.attributes.get("skylight"):  # in the roof slab over it
+            slab = host_slab(o, slabs)
+            if slab is None:
+                log.warning("roof window %s lies in no roof slab any more; dropped", o.id)
+            else:
+                out.append(o.with_(parent=slab.id, storey=slab.storey))
+            continue
         c = o.centroid
         best = None
         for w in walls:

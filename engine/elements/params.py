@@ -4,9 +4,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..quantities import Count, Factor, Flag, Metres, Radians, Ratio
+from ..quantities import Count, Factor, Flag, Metres, Radians, Ratio, SquareMetres
 
-__all__ = ["OpeningParams", "ViewpointParams", "WallRunParams", "SlabParams", "ElementsParams"]
+__all__ = ["OpeningParams", "ViewpointParams", "WallRunParams", "SlabParams", "SkylightParams",
+           "ElementsParams"]
 
 
 @dataclass(frozen=True)
@@ -254,6 +255,42 @@ class SlabParams:
 
 
 @dataclass(frozen=True)
+class SkylightParams:
+    """Roof windows (:mod:`engine.elements.skylights`): holes in a roof slab seen from below."""
+
+    cell: Metres = 0.1
+    """Raster cell over a room's footprint, metres."""
+    band: Metres = 0.08
+    """Points this close to a room's ceiling are on it, metres."""
+    min_depth: Metres = 0.2
+    """Points at least this far above the ceiling are inside a hole through it (a recessed
+    light stands less), metres."""
+    max_depth: Metres = 1.5
+    """... and at most this far (a roof's thickness and the skylight's kerb), metres."""
+    min_area: SquareMetres = 0.15
+    """A hole's least area, m²."""
+    max_area: SquareMetres = 4.0
+    """A hole's largest area (more: a void or a higher part of the room), m²."""
+    min_side: Metres = 0.3
+    """A hole's shorter side at least, metres."""
+    min_fill: Ratio = 0.6
+    """A hole's share of its bounding rectangle at least."""
+    ring: Metres = 0.2
+    """The ring around a hole that must be ceiling, metres."""
+    min_ring: Ratio = 0.7
+    """Share of the ring's cells with ceiling points at least, on three sides of the hole of
+    four (a hole, not the ceiling's edge nor a part nobody saw; the fourth may be a wall)."""
+    max_beyond: Ratio = 0.2
+    """Share of the cells 0.3 m to ``ring`` + 0.2 m from a hole with points above the ceiling,
+    at most: a shaft's walls hide what is beyond them (over a missing ceiling tile the plenum
+    is seen far past the hole)."""
+    wall_margin: Metres = 0.2
+    """Cells this close to the room's walls are left out (the walls' tops), metres."""
+    frame: Metres = 0.15
+    """Depth of the window's box under the hole's top, metres."""
+
+
+@dataclass(frozen=True)
 class ElementsParams:
     """Parameters of the building-elements stage (:mod:`engine.elements.build`)."""
 
@@ -264,3 +301,5 @@ class ElementsParams:
     """Find doors and windows in the walls when a scan is given."""
     viewpoints: ViewpointParams = field(default_factory=ViewpointParams)
     """Stand-in scanners for a scan without scanner positions."""
+    skylights: SkylightParams = field(default_factory=SkylightParams)
+    """Roof windows seen from the rooms under a roof slab (with a scan)."""

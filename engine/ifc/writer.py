@@ -70,7 +70,8 @@ from .common import (PSET_PROVENANCE, PSET_SHAPE, PSET_STOREY, PSET_SUPPORT, SLA
                      require_ifcopenshell, safe_text, source_date_epoch)
 from .properties import PropertyWriter
 from .writer_geometry import (BoundaryWriter, axis2, axis_line, clean_ring, default_storeys, door_size,
-                              opening_geometry, polyline, slab_type, solid, union_rings, wall_frame)
+                              opening_geometry, polyline, slab_opening_geometry, slab_type, solid,
+                              union_rings, wall_frame)
 
 __all__ = ["IfcWriteParams", "write_ifc", "build_ifc", "TYPE_COLOURS"]
 
@@ -726,9 +727,9 @@ class _Writer(BoundaryWriter, PropertyWriter):
                 continue
             window = d.type == ShapeType.WINDOW
             kind = str(d.attributes.get("kind", "window" if window else "door")).lower()
-            wall = self.ent.get(d.parent) if d.parent is not None else None
-            if wall is not None and not wall.is_a("IfcWall"):
-                wall = None
+            host = self.ent.get(d.parent) if d.parent is not None else None
+            wall = host if host is not None and host.is_a("IfcWall") else None
+            roof = host if host is not None and host.is_a("IfcSlab") and window else None  # a skylight's
             rot = self.rot.get(wall.id()) if wall is not None else None
             g = self.geom[d.id]
             origin = self._origin_of(g)
@@ -750,7 +751,8 @@ class _Writer(BoundaryWriter, PropertyWriter):
                 spaces.update(x for x in sp if isinstance(x, str))
             external = any(x in m and m[x].type == ShapeType.EXTERIOR for x in spaces)
             cls, name = ("IfcWindow", "Window") if window else ("IfcDoor", "Door")
-            e = self._root(cls, ("shape", d.id), predefined_type=name.upper(), name=d.name or d.id)
+            ptype = "SKYLIGHT" if roof is not None else name.upper()
+            e = self._root(cls, ("shape", d.id), predefined_type=ptype, name=d.name or d.id)
             e.OverallWidth, e.OverallHeight = float(w), float(h)
             container = self._container_of(d)
             self._placement(e, container, origin, rot)
@@ -762,15 +764,17 @@ class _Writer(BoundaryWriter, PropertyWriter):
             self._qto(e, f"Qto_{name}BaseQuantities", {"Width": w, "Height": h, "Perimeter": 2 * (w + h),
                                                        "Area": w * h})
             step = self.params.type_step
-            size = f"{name} {millimetres(w, step)} x {millimetres(h, step)} mm"
+            label = "Roof window" if roof is not None else name
+            size = f"{label} {millimetres(w, step)} x {millimetres(h, step)} mm"
             if window:
-                self._typed(e, "IfcWindowType", "WINDOW", size, PartitioningType="NOTDEFINED")
+                self._typed(e, "IfcWindowType", "SKYLIGHT" if roof is not None else "WINDOW", size,
+                            PartitioningType="NOTDEFINED")
             else:
                 self._typed(e, "IfcDoorType", "DOOR", size, OperationType="NOTDEFINED")
-            if wall is None:
+            if wall is None and roof is None:
                 log.warning("%s %s has no wall to void; written without an opening", name.lower(), d.id)
                 continue
-            op = self._void(d, wall, origin, rot, ("opening", d.id), f"Opening {d.name or d.id}")
+            op = self._void(d, wall or roof, origin, rot, ("opening", d.id), f"Opening {d.name or d.id}")
             # not api.feature.add_filling: it rebuilds the placements through the api
             self._rel("IfcRelFillsElement", (self._key(op), "fills"), RelatingOpeningElement=op,
                       RelatedBuildingElement=e)
@@ -779,7 +783,10 @@ class _Writer(BoundaryWriter, PropertyWriter):
         """IfcOpeningElement of door or window ``d`` (its box through the wall) voiding ``wall``."""
         f = self.f
         op = self._root("IfcOpeningElement", key, predefined_type="OPENING", name=name)
-        og = opening_geometry(d, self.geom[d.id], self.geom[d.parent], self.params.opening_margin)
+        if wall.is_a("IfcSlab"):  # a roof window: its plan through the slab's thickness
+            og = slab_opening_geometry(self.geom[d.id], self.geom[d.parent], self.params.opening_margin)
+        else:
+            og = opening_geometry(d, self.geom[d.id], self.geom[d.parent], self.params.opening_margin)
         self._placement(op, wall, origin, rot)
         item, rtype = solid(f, og, origin, rot)
         op.Representation = f.createIfcProductDefinitionShape(

@@ -145,6 +145,14 @@ def opening_geometry(door: Shape, g: Polyhedron, wall_g: Polyhedron, margin: flo
     return Polyhedron.prism(np.array(corners2), zmin, zmax)
 
 
+def slab_opening_geometry(g: Polyhedron, slab_g: Polyhedron, margin: float) -> Polyhedron:
+    """A roof window's hole: its box's plan (``g``) through the slab (``slab_g``), ``margin``
+    beyond either face."""
+    b, sb = g.bounds, slab_g.bounds
+    ring = [(b[0, 0], b[0, 1]), (b[1, 0], b[0, 1]), (b[1, 0], b[1, 1]), (b[0, 0], b[1, 1])]
+    return Polyhedron.prism(np.array(ring), sb[0, 2] - margin, sb[1, 2] + margin)
+
+
 def face_table(g: Polyhedron) -> tuple:
     """Every face of ``g``: (k, 3) unit outward normals, (k,) plane offsets ``n · v0`` and the
     list of (j, 3) vertices."""
