@@ -82,9 +82,10 @@ def _groups(above: np.ndarray, ceiling: np.ndarray, inside: np.ndarray, p: Skyli
 
 def _edges(a, b, up, a0: float, a1: float, b0: float, b1: float, cell: float) -> tuple[float, float]:
     """The hole's two edges along ``a`` (raster edges ``a0``, ``a1``): the points above the
-    ceiling two cells round it (the group may stop short of a reveal over a wall's top), in the middle three fifths of its other side (``b0``..``b1``),
-    reach the reveals and no further (the glazing or the kerb spans the hole) — their 2 % and
-    98 % quantiles; the raster's edges with fewer than ten."""
+    ceiling within two cells of it (the group may stop short of a reveal over a wall's top),
+    in the middle three fifths of its other side (``b0``..``b1``), reach the reveals and no
+    further (the glazing or the kerb spans the hole) — their 2 % and 98 % quantiles; the
+    raster's edges with fewer than ten."""
     mid, half = (b0 + b1) / 2, 0.3 * (b1 - b0)
     m = up & (a >= a0 - 2 * cell) & (a <= a1 + 2 * cell) & (np.abs(b - mid) <= half)
     if m.sum() < 10:
@@ -94,12 +95,12 @@ def _edges(a, b, up, a0: float, a1: float, b0: float, b1: float, cell: float) ->
 
 
 def roof_windows(roofs: Sequence[Shape], rooms: Sequence[tuple], xyz: np.ndarray,
-                 exterior_ids: dict, p: SkylightParams = SkylightParams(), start: int = 0) -> list[Shape]:
+                 exterior_ids: dict, p: SkylightParams = SkylightParams()) -> list[Shape]:
     """Skylights in ``roofs`` (roof SLAB shapes, their bottom the ceiling of the rooms under
     them) from the model-frame points ``xyz`` (n, 3); ``rooms``: (room id, storey, footprint
     polygon) each, the window's room the one holding its centre; ``exterior_ids``: storey →
     its exterior's id. The slab's plan is searched, not each room's: a room's edge the model
-    misplaces under a hole would cut it. Ids count from ``start``."""
+    misplaces under a hole would cut it."""
     out = []
     if not len(roofs) or xyz is None or not len(xyz):
         return out
@@ -137,7 +138,7 @@ def roof_windows(roofs: Sequence[Shape], rooms: Sequence[tuple], xyz: np.ndarray
             w, h = u1 - u0, v1 - v0
             centre = Point((u0 + u1) / 2, (v0 + v1) / 2)
             room = min(((r[2].distance(centre), r[0]) for r in rooms if r[1] == k), default=(None, None))[1]
-            oid = f"window_roof_s{k}_{start + len(out)}"
+            oid = f"window_roof_s{k}_{len(out)}"
             ring = [(u0, v0), (u1, v0), (u1, v1), (u0, v1)]
             conf = round(float(min(1.0, share) * min(1.0, m.mean() / max(p.min_fill, 1e-9))), 3)
             out.append(Shape(oid, ShapeType.WINDOW, Polyhedron.prism(ring, top - p.frame, top), storey=k,
