@@ -21,6 +21,7 @@ import json
 import logging
 import os
 import signal
+import stat
 import tempfile
 import threading
 import traceback
@@ -59,11 +60,22 @@ def seed_argument(text: str) -> int:
     return v
 
 
+def _kind(path: str) -> Optional[str]:
+    """"dir", "file" (anything else) or None (nothing there, or nothing this process may
+    look at: creating it then fails with the reason), from one look."""
+    try:
+        return "dir" if stat.S_ISDIR(os.stat(path).st_mode) else "file"
+    except OSError:
+        return None
+
+
 def check_output_dir(out_dir: str | os.PathLike) -> str:
     """Check that ``out_dir`` is (or can become) a writable folder, before any work.
 
     A folder that does not exist yet is created for the check and removed again, so a run
-    that writes nothing leaves nothing behind.
+    that writes nothing leaves nothing behind. Checks of one folder may run at once (the
+    workers of a cluster batch, each before its file): a folder another check creates meanwhile
+    is not this one's to remove, and one another check removes meanwhile is made again.
 
     Returns
     -------
@@ -77,32 +89,43 @@ def check_output_dir(out_dir: str | os.PathLike) -> str:
     """
     out = os.fspath(out_dir)
     path = os.path.abspath(out)
-    if os.path.exists(path) and not os.path.isdir(path):
-        raise OutputError("the output path is a file, not a folder", out)
-    created = []
-    probe = path
-    while not os.path.exists(probe):
-        created.append(probe)
-        parent = os.path.dirname(probe)
-        if parent == probe:
-            break
-        probe = parent
-    if os.path.exists(probe) and not os.path.isdir(probe):
-        raise OutputError(f"cannot create the output folder: {probe} is a file", out)
-    try:
-        for d in reversed(created):
-            os.mkdir(d)
-        fd, tmp = tempfile.mkstemp(prefix=".indoor-write-test-", dir=path)
-        os.close(fd)
-        os.remove(tmp)
-    except OSError as e:
-        what = "cannot create the output folder" if created and not os.path.isdir(path) \
-            else "the output folder is not writable"
-        raise OutputError(f"{what} ({e.strerror or e})", out) from None
-    finally:
-        for d in created:  # deepest first
-            with contextlib.suppress(OSError):
-                os.rmdir(d)
+    for attempt in range(5):
+        if _kind(path) == "file":
+            raise OutputError("the output path is a file, not a folder", out)
+        missing = []
+        probe = path
+        while (kind := _kind(probe)) is None:
+            missing.append(probe)
+            parent = os.path.dirname(probe)
+            if parent == probe:
+                break
+            probe = parent
+        if kind == "file":
+            raise OutputError(f"cannot create the output folder: {probe} is a file", out)
+        created = []
+        try:
+            for d in reversed(missing):
+                try:
+                    os.mkdir(d)
+                    created.append(d)
+                except FileExistsError:  # another check's (if gone again, the next step retries)
+                    if _kind(d) == "file":
+                        raise
+            fd, tmp = tempfile.mkstemp(prefix=".indoor-write-test-", dir=path)
+            os.close(fd)
+            os.remove(tmp)
+            return out
+        except FileNotFoundError as e:  # another check removed a folder of the chain meanwhile
+            if attempt == 4:
+                raise OutputError(f"cannot create the output folder ({e.strerror or e})", out) from None
+        except OSError as e:
+            what = "cannot create the output folder" if missing and not os.path.isdir(path) \
+                else "the output folder is not writable"
+            raise OutputError(f"{what} ({e.strerror or e})", out) from None
+        finally:
+            for d in reversed(created):  # deepest first; not when another check writes in it
+                with contextlib.suppress(OSError):
+                    os.rmdir(d)
     return out
 
 

@@ -76,6 +76,35 @@ def test_check_output_dir_leaves_nothing_behind(tmp_path):
         assert str(bad) in str(e.value) and error_kind(e.value) == "output"
 
 
+def test_checks_of_one_new_folder_at_once_all_pass(tmp_path):
+    """The workers of a cluster batch each check the output folder before their file, at
+    the same moment on a new folder: one check's folder must not fail another ("File
+    exists" when both create it, "No such file" when one removes it under the other; a
+    2-worker batch lost two of its three scans so, 1 run in 5). 40 rounds of 4 threads."""
+    import threading
+
+    errors = []
+
+    def check(target, barrier):
+        barrier.wait()
+        try:
+            check_output_dir(target)
+        except OutputError as e:
+            errors.append(str(e))
+
+    for k in range(40):
+        target = tmp_path / f"out{k}" / "deeper"
+        barrier = threading.Barrier(4)
+        threads = [threading.Thread(target=check, args=(target, barrier)) for _ in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    assert errors == []
+    # nothing written; a folder one check made may stay where another made one in it
+    assert not [p for p in tmp_path.rglob("*") if not p.is_dir()]
+
+
 def test_error_lines_name_the_file_once_and_say_the_kind():
     assert error_line(InputError("bad count", "a.ply"), "a.ply") == "a.ply: input error: bad count"
     assert error_line(ReconstructionError("no storey", "a.ply")) == "a.ply: reconstruction error: no storey"
