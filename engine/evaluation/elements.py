@@ -17,7 +17,9 @@ figures:
   the union of the true rooms' and interior walls' footprints, wall gaps closed) and the
   share of it lying within
   ``coverage_distance`` + half the thickness of a parallel model wall (flat-capped band
-  around the wall's centre line): external walls only (``external`` True) and any wall.
+  around the wall's centre line): external walls only (``external`` True) and any wall;
+  and ``inside_external_m``, the length of external walls' centre lines lying more than
+  ``inside_margin`` inside the outline (interior walls called external).
 * ``slabs`` — per truth storey with rooms, whether floor slabs (reaching within
   ``slab_z_tolerance`` of the floor height, not 1 m above it) and ceiling slabs (reaching
   1 m above the floor,
@@ -97,6 +99,9 @@ class ElementMatchParams:
     covered (a junction square that belongs to an interior wall), m."""
     outline_closing: float = 0.3
     """Closing radius that fills the wall gaps between true rooms (gaps up to twice this), m."""
+    inside_margin: float = 0.5
+    """An external model wall's centre line deeper than this inside a storey's outline lies
+    inside the building (an interior wall called external), m."""
     run_offset: float = 0.05
     """Wall pieces of one run have centre lines within this of each other, m."""
     run_angle: float = float(np.radians(2.0))
@@ -281,7 +286,7 @@ def _exterior_scores(model, truth, outlines, params) -> dict:
     per = []
     adjacent = _exterior_adjacent(model)
     walls = [(_storey_of(w, truth), _plan(w, model), _is_external(w, model, adjacent)) for w in model.walls]
-    tot_b = tot_e = tot_a = 0.0
+    tot_b = tot_e = tot_a = tot_i = 0.0
     for k, outline in enumerate(outlines):
         edges = _edges(outline)
         length = float(sum(e.length for e in edges))
@@ -290,9 +295,28 @@ def _exterior_scores(model, truth, outlines, params) -> dict:
         any_ = _covered_length(edges, unary_union([p for p, _ in mine]), params)
         per.append({"storey": k, "boundary_m": length, "external_m": ext, "any_m": any_,
                     "external_share": _ratio(ext, length), "any_share": _ratio(any_, length)})
-        tot_b, tot_e, tot_a = tot_b + length, tot_e + ext, tot_a + any_
+        inner = outline.buffer(-params.inside_margin, join_style="mitre") if not outline.is_empty else outline
+        inside = float(sum(_length_inside(w, p, inner) for w, (st, p, e) in zip(model.walls, walls)
+                           if st == k and e))
+        per[-1]["inside_external_m"] = inside
+        tot_b, tot_e, tot_a, tot_i = tot_b + length, tot_e + ext, tot_a + any_, tot_i + inside
     return {"boundary_m": tot_b, "external_share": _ratio(tot_e, tot_b), "any_share": _ratio(tot_a, tot_b),
-            "external_walls": sum(1 for *_, e in walls if e), "per_storey": per}
+            "external_walls": sum(1 for *_, e in walls if e), "inside_external_m": tot_i, "per_storey": per}
+
+
+def _length_inside(w: Shape, plan, region) -> float:
+    """Length of the wall lying in ``region``: its centre line's (``axis_line``), else its
+    plan's area there over its thickness (an L-shaped truth piece has no one axis)."""
+    if plan is None or plan.is_empty or region.is_empty:
+        return 0.0
+    a = _axis_attr(w)
+    if a is not None:
+        return float(LineString(a).intersection(region).length)
+    t = w.attributes.get("thickness")
+    if not isinstance(t, (int, float)) or not t > 0:
+        c = np.asarray(plan.minimum_rotated_rectangle.exterior.coords)
+        t = float(min(np.linalg.norm(c[1] - c[0]), np.linalg.norm(c[2] - c[1])))
+    return float(plan.intersection(region).area / t) if t > 0 else 0.0
 
 
 # ----------------------------------------------------------------------------- slabs

@@ -77,6 +77,8 @@ def _check_perfect(r, truth):
         assert w["precision"] == w["recall"] == 1.0
     assert r["exterior"]["external_share"] == pytest.approx(1.0, abs=1e-9)
     assert r["exterior"]["any_share"] == pytest.approx(1.0, abs=1e-9)
+    # syn_house: 0.08 m, the plan of an L-shaped true piece (area over thickness) at the slanted corner
+    assert r["exterior"]["inside_external_m"] <= 0.1
     assert all(p["floor"] and p["ceiling"] for p in r["slabs"]["per_storey"])
     assert r["slabs"]["floor_found"] == r["slabs"]["ceiling_found"] == len(truth.storeys)
     sp = r["spaces"]
@@ -230,6 +232,24 @@ def test_external_flag_falls_back_to_sides_and_adjacency(office):
     sided = bare.with_(relations=()).replace_shapes(
         *[bare[w].with_(attributes={**bare[w].attributes, "sides": [room, None]}) for w in ext_ids])
     assert evaluate_elements(sided, office)["exterior"]["external_share"] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_an_interior_wall_called_external_is_counted_inside(office):
+    """An external wall deep inside the outline (more than inside_margin) is an interior wall
+    called external (Pset_WallCommon.IsExternal wrong): its centre line's length there is
+    ``inside_external_m``; the exterior coverage does not change."""
+    def length(w):
+        lo, hi = w.bounds
+        return float(max(hi[:2] - lo[:2]))
+
+    inner = max((w for w in office.walls if not _is_ext(w)), key=length)
+    length = length(inner)
+    flipped = office.replace_shapes(inner.with_(attributes={**inner.attributes, "external": True}))
+    r = evaluate_elements(flipped, office)["exterior"]
+    # all of it counts but ends within the margin of the outline
+    assert length - 2 * 0.5 - 0.35 <= r["inside_external_m"] <= length + 1e-6, r
+    assert r["external_share"] == pytest.approx(1.0, abs=1e-9)
+    assert evaluate_elements(office, office)["exterior"]["inside_external_m"] == 0.0
 
 
 def test_windows_and_openings_are_told_apart(office):
