@@ -219,6 +219,11 @@ class WallRunParams:
     boards; closer planes are a panel, a leaf or a rail), metres."""
     min_thickness: Metres = 0.03
     """Facing room faces closer than this meet without a wall (an open plan), metres."""
+    void_wall_thickness: Metres = 0.12
+    """With a scan: room faces farther apart than ``max_thickness`` but at most
+    ``max_solid_thickness`` across a gap that is not solid (a closet, a shaft or a strip
+    behind furniture the rooms leave out) each get an interior wall this thick (at most a
+    third of the gap), not an exterior one, metres."""
     exterior_thickness: Metres = 0.3
     """Thickness of an exterior wall whose outer face is not measured, metres."""
     min_length: Metres = 0.1

@@ -178,7 +178,8 @@ def _pieces(footprints: dict, prm: WallRunParams, measured=None, breaks=(), soli
     [(region, thickness)]: exterior pieces whose default axis lies in a region get its thickness;
     ``breaks`` [region]: interior pieces stop there and their two spaces meet without a wall;
     ``solid(region) -> bool``: whether a gap wider than ``max_thickness`` (up to
-    ``max_solid_thickness``) is solid in the scan, so a thick wall; ``faces(p, q, n)``: the
+    ``max_solid_thickness``) is solid in the scan, so a thick wall, else a void inside the
+    building with a wall along each face (docs/method.md §7.1); ``faces(p, q, n)``: the
     wall the scan shows along the stretch p–q where two spaces touch, as (offset of its axis
     along n, thickness), or None (they meet without a wall)."""
     P, Q, owner = _edges(footprints, prm.simplify)
@@ -198,6 +199,7 @@ def _pieces(footprints: dict, prm: WallRunParams, measured=None, breaks=(), soli
     reach = max(prm.max_thickness, prm.max_solid_thickness) if solid is not None else prm.max_thickness
     qi, qj = tree.query(lines, predicate="dwithin", distance=reach)
     thick = []  # (gap, i, j): facing edges farther apart than max_thickness, tested below
+    voids = []  # (region, i, u0, u1, gap): such gaps that are not solid
     for i, j in zip(qi.tolist(), qj.tolist()):
         if i >= j:
             continue
@@ -260,35 +262,85 @@ def _pieces(footprints: dict, prm: WallRunParams, measured=None, breaks=(), soli
         mg = prm.solid_margin
         core = Polygon([P[i] + D[i] * u0 + N[i] * mg, P[i] + D[i] * u1 + N[i] * mg,
                         P[i] + D[i] * u1 + N[i] * (s - mg), P[i] + D[i] * u0 + N[i] * (s - mg)])
-        if not solid(core):
-            continue
         v_a, v_b = float(D[j] @ (P[i] + D[i] * u0 - P[j])), float(D[j] @ (P[i] + D[i] * u1 - P[j]))
         covered[i].append((u0, u1))
         covered[j].append((min(v_a, v_b), max(v_a, v_b)))
+        if not solid(core):
+            # neither a wall nor a room: a closet, a shaft or a strip behind furniture that
+            # the rooms leave out, inside the building — a wall along each room's face
+            voids.append((Polygon([P[i] + D[i] * u0, P[i] + D[i] * u1, P[i] + D[i] * u1 + N[i] * s,
+                                   P[i] + D[i] * u0 + N[i] * s]), i, u0, u1, s))
+            tv = min(prm.void_wall_thickness, s / 3)
+            for e, w0, w1 in ((i, u0, u1), (j, min(v_a, v_b), max(v_a, v_b))):
+                off = N[e] * (tv / 2)
+                pieces.append(_Piece(P[e] + D[e] * w0 + off, P[e] + D[e] * w1 + off, tv, False, owner[e],
+                                     None, False))
+            continue
         off = N[i] * (s / 2)
         pieces.append(_Piece(P[i] + D[i] * u0 + off, P[i] + D[i] * u1 + off, s, False, owner[i], owner[j], True))
     t = prm.exterior_thickness
     # the building closed over its walls: a face whose outside lies in it is at a junction
-    # or a niche, not on the exterior
+    # or a niche, not on the exterior; so is one facing a void (a wall along it), and the
+    # building takes in its voids, its interior walls and the narrow holes they enclose
     r = prm.max_thickness / 2
-    closed = unary_union(list(footprints.values())).buffer(r, join_style="mitre").buffer(-r, join_style="mitre")
+    void = unary_union([v[0] for v in voids]) if voids else Polygon()
+    closed = unary_union(list(footprints.values()) + [Polygon(_rect(pc)) for pc in pieces] + [void])
+    closed = closed.buffer(r, join_style="mitre").buffer(-r, join_style="mitre")
+    filled = _fill_holes(closed, prm.max_solid_thickness)
+    void = unary_union([void, filled.difference(closed)])  # an enclosed shaft is a void too
+    closed = filled
     probe = r + 0.05
     for i in range(m):
         for u0, u1 in _subtract(covered[i], 0.0, float(L[i])):
             if u1 - u0 < prm.min_length:
                 continue
-            mid = P[i] + D[i] * (0.5 * (u0 + u1)) + N[i] * probe
-            if closed.contains(Point(mid)):
+            at = P[i] + D[i] * (0.5 * (u0 + u1))
+            if not void.is_empty and any(void.contains(Point(at + N[i] * d)) for d in (0.15, probe)):
+                off = N[i] * (prm.void_wall_thickness / 2)
+                pieces.append(_Piece(P[i] + D[i] * u0 + off, P[i] + D[i] * u1 + off, prm.void_wall_thickness,
+                                     False, owner[i], None, False))
                 continue
-            te, known = t, False
-            probe_axis = Point(P[i] + D[i] * (0.5 * (u0 + u1)) + N[i] * (t / 2))
-            for region, tm in measured or ():
-                if region.contains(probe_axis):
-                    te, known = tm, True
-                    break
+            if closed.contains(Point(at + N[i] * probe)):
+                continue
+            te, known = _exterior_thickness(at + N[i] * (t / 2), t, measured)
             off = N[i] * (te / 2)
             pieces.append(_Piece(P[i] + D[i] * u0 + off, P[i] + D[i] * u1 + off, te, True, owner[i], None, known))
+    # a void's end open to the outside: the envelope goes on across it
+    for _, i, u0, u1, s in voids:
+        for u, out in ((u0, -D[i]), (u1, D[i])):
+            a = P[i] + D[i] * u
+            b = a + N[i] * s
+            if closed.contains(Point(0.5 * (a + b) + out * probe)):
+                continue
+            te, known = _exterior_thickness(0.5 * (a + b) + out * (t / 2), t, measured)
+            pieces.append(_Piece(a + out * (te / 2), b + out * (te / 2), te, True, None, None, known))
     return pieces, open_pairs
+
+
+def _exterior_thickness(at: np.ndarray, default: float, measured) -> tuple:
+    """(thickness, measured?) of an exterior wall whose axis passes ``at``: that of the
+    measured region holding it, else ``default``."""
+    for region, tm in measured or ():
+        if region.contains(Point(at)):
+            return tm, True
+    return default, False
+
+
+def _fill_holes(geom, width: float):
+    """``geom`` with its holes no wider than ``width`` filled (the shorter side of a hole's
+    minimum-area box): enclosed shafts and closets, not courtyards."""
+    out = []
+    for g in polygon_parts(geom):
+        keep = [h for h in g.interiors if min(_box_sides(Polygon(h))) > width]
+        out.append(Polygon(g.exterior, keep))
+    return unary_union(out) if out else geom
+
+
+def _box_sides(poly: Polygon) -> tuple:
+    c = np.asarray(poly.minimum_rotated_rectangle.exterior.coords)
+    if len(c) < 4:
+        return (0.0, 0.0)
+    return float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1]))
 
 
 def _bridges_break(d, n, c: float, u0: float, u1: float, breaks) -> bool:
@@ -496,7 +548,8 @@ def wall_runs(footprints: dict, storey: int, prm: WallRunParams = WallRunParams(
     ``breaks``: [shapely region] where an interior wall is interrupted (a gap from floor to
     ceiling seen in the scan): the wall stops there and the two spaces meet without one;
     ``solid(region) -> bool``: whether the scan holds (almost) no points in a plan region,
-    so that rooms up to ``max_solid_thickness`` apart have a thick wall between them;
+    so that rooms up to ``max_solid_thickness`` apart have a thick wall between them (else a
+    wall along each of their faces, the gap a void inside the building);
     ``faces(p, q, n) -> (offset, thickness) | None``: a wall seen in the scan where two spaces
     touch along p–q (their split cut through a wall: it stays a wall).
 

@@ -3,7 +3,7 @@ import math
 
 import numpy as np
 import pytest
-from shapely.geometry import Polygon
+from shapely.geometry import Point, Polygon
 from shapely.ops import unary_union
 
 from engine.elements.build import building_elements
@@ -298,7 +298,10 @@ def test_a_floor_to_ceiling_break_ends_the_wall_and_the_rooms_meet_there():
 
 def test_a_solid_gap_wider_than_max_thickness_is_one_thick_wall():
     """Rooms 0.9 m apart (more than max_thickness 0.7): a party wall when the scan says the gap
-    is solid, else each room gets its exterior wall; no scan, no test: exterior walls."""
+    is solid; else the gap is a void inside the building (a closet, a shaft, a strip behind
+    furniture): an interior wall along each room's face and the envelope closed across the
+    gap's ends (before: two exterior walls inside the building and no wall across the ends);
+    no scan, no test: exterior walls."""
     fps = {"a": _rect(0, 0, 5, 6), "b": _rect(5.9, 0, 10.9, 6)}
     asked = []
 
@@ -314,13 +317,39 @@ def test_a_solid_gap_wider_than_max_thickness_is_one_thick_wall():
     m = WallRunParams().solid_margin
     assert asked and asked[0].bounds[0] == pytest.approx(5.0 + m, abs=1e-6)
     assert asked[0].bounds[2] == pytest.approx(5.9 - m, abs=1e-6)
-    for s in (lambda r: False, None):
-        runs, _ = _runs(fps, solid=s)
-        assert all(r.external for r in runs)
+    runs, _ = _runs(fps, solid=lambda r: False)
+    inner = sorted((r for r in runs if not r.external), key=lambda r: r.a[0])
+    t = WallRunParams().void_wall_thickness
+    assert len(inner) == 2 and all(r.thickness == pytest.approx(t) for r in inner)
+    assert [float(r.a[0]) for r in inner] == pytest.approx([5.0 + t / 2, 5.9 - t / 2], abs=1e-6)
+    assert [set(r.sides()) for r in inner] == [{"a", None}, {"b", None}]
+    outer = [Polygon(r.footprint()) for r in runs if r.external]
+    for y in (-0.15, 6.15):  # the south and north envelope go on across the gap's ends
+        assert any(p.contains(Point(5.45, y)) for p in outer), y
+    assert not any(p.contains(Point(5.45, 3.0)) for p in outer)  # nothing exterior inside
+    runs, _ = _runs(fps, solid=None)
+    assert all(r.external for r in runs)
     # farther apart than max_solid_thickness: never asked, no wall between
     asked.clear()
     runs, _ = _runs({"a": _rect(0, 0, 5, 6), "b": _rect(6.5, 0, 11.5, 6)}, solid=solid)
     assert not asked and all(r.external for r in runs)
+
+
+@pytest.mark.parametrize("hole", [1.0, 3.0])
+def test_a_shaft_enclosed_by_rooms_has_interior_walls_a_courtyard_exterior_ones(hole):
+    """Four rooms (0.2 m walls between them) around a square hole: a 1 m shaft (no wider than
+    max_solid_thickness) lies inside the building, its faces get interior walls (before:
+    exterior ones); a 3 m courtyard is outside, its faces get exterior walls. No scan."""
+    h, g = hole / 2, hole / 2 + 4.0  # the hole is |x|, |y| < h
+    fps = {"s": _rect(-g, -g, g, -h), "n": _rect(-g, h, g, g),
+           "w": _rect(-g, -h + 0.2, -h, h - 0.2), "e": _rect(h, -h + 0.2, g, h - 0.2)}
+    runs, _ = _runs(fps)
+    facing = [r for r in runs if max(abs(float(v)) for v in 0.5 * (r.a + r.b)) < h + 0.35]
+    assert facing, [(r.a, r.b) for r in runs]
+    if hole < WallRunParams().max_solid_thickness:
+        assert not any(r.external for r in facing)
+    else:
+        assert all(r.external for r in facing)
 
 
 def _gap_cloud(floor_in_gap: bool):
@@ -342,8 +371,9 @@ def test_a_thick_wall_needs_an_empty_gap_in_the_scan(floor_in_gap):
     m = _model([_rect(0, 0, 5, 6), _rect(5.9, 0, 10.9, 6)])
     out = building_elements(m, _gap_cloud(floor_in_gap), params=NO_SCAN)
     inner = [w for w in out.walls if not w.attributes["external"]]
-    if floor_in_gap:  # a space the reconstruction left out, not a wall
-        assert inner == []
+    if floor_in_gap:  # a space the reconstruction left out, not a wall: a wall along each room
+        t = WallRunParams().void_wall_thickness
+        assert len(inner) == 2 and all(w.attributes["thickness"] == pytest.approx(t) for w in inner)
     else:
         assert len(inner) == 1 and inner[0].attributes["thickness"] == pytest.approx(0.9, abs=0.01)
 
