@@ -34,7 +34,17 @@ def _run(name, noise="tls"):
 
 
 def _walls(sc, m):
-    ev = evaluate(m, sc.truth)
+    """Side-face completeness and correctness at 10 cm over the faces of the true spaces the
+    scan reaches (as the rooms are scored: the Duplex's roof space, 150 m² of walls no
+    scanner enters, counted as missed before, 0.75 instead of 0.93 on seed 2)."""
+    from engine.evaluation import EvaluationParams
+    from engine.evaluation.patches import patches_from_model
+
+    seen = scanned_spaces(sc.truth, sc.cloud.xyz)
+    prm = EvaluationParams()
+    keys = [p.key for p in patches_from_model(sc.truth, prm.surface_types, kinds=prm.groups,
+                                              merge=prm.merge_coplanar)]
+    ev = evaluate(m, sc.truth, prm, visible={k: k.split(":")[0] in seen for k in keys})
     i = int(np.argmin(np.abs(ev.buffers - 0.10)))
     return float(ev.curve("completeness", "wall")[i]), float(ev.curve("correctness", "wall")[i])
 
@@ -190,11 +200,11 @@ def test_duplex_party_wall_is_modelled(noise):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="side faces: seed 2 measures completeness 0.70, correctness 0.88 (TLS; 0.57 / 0.85 "
-                          "before the Duplex's inward-wound IFC faces were turned out and open plans' virtual "
-                          "boundaries left out); missed: closets and alcoves barely seen, faces of the stairwells "
-                          "(one space through both levels in the truth), partitions whose thickness is lost "
-                          "(the rooms meet without a wall)", strict=False)
+@pytest.mark.xfail(reason="side faces of the scanned spaces: seed 2 measures completeness 0.93, correctness "
+                          "0.96 (TLS; mobile 0.93 / 0.96); missed: the upper bedrooms' wardrobe alcoves (2 m "
+                          "cabinets, 0.6 m of wall seen above them, 22 m²: the grid has no line at their back, "
+                          "suppressed by the utility walls 12-18 cm away), faces of the stairwells (one space "
+                          "through both levels in the truth)", strict=False)
 def test_duplex_side_faces():
     sc, m, _ = _run("duplex")
     c, k = _walls(sc, m)
