@@ -267,14 +267,15 @@ def _pieces(footprints: dict, prm: WallRunParams, measured=None, breaks=(), soli
         covered[j].append((min(v_a, v_b), max(v_a, v_b)))
         if not solid(core):
             # neither a wall nor a room: a closet, a shaft or a strip behind furniture that
-            # the rooms leave out, inside the building — a wall along each room's face
+            # the rooms leave out, inside the building — a wall along each room's face, the
+            # room across the void on its other side (a door in it leads there)
             voids.append((Polygon([P[i] + D[i] * u0, P[i] + D[i] * u1, P[i] + D[i] * u1 + N[i] * s,
                                    P[i] + D[i] * u0 + N[i] * s]), i, u0, u1, s))
             tv = min(prm.void_wall_thickness, s / 3)
-            for e, w0, w1 in ((i, u0, u1), (j, min(v_a, v_b), max(v_a, v_b))):
+            for e, f, w0, w1 in ((i, j, u0, u1), (j, i, min(v_a, v_b), max(v_a, v_b))):
                 off = N[e] * (tv / 2)
                 pieces.append(_Piece(P[e] + D[e] * w0 + off, P[e] + D[e] * w1 + off, tv, False, owner[e],
-                                     None, False))
+                                     owner[f], False))
             continue
         off = N[i] * (s / 2)
         pieces.append(_Piece(P[i] + D[i] * u0 + off, P[i] + D[i] * u1 + off, s, False, owner[i], owner[j], True))

@@ -322,7 +322,7 @@ def test_a_solid_gap_wider_than_max_thickness_is_one_thick_wall():
     t = WallRunParams().void_wall_thickness
     assert len(inner) == 2 and all(r.thickness == pytest.approx(t) for r in inner)
     assert [float(r.a[0]) for r in inner] == pytest.approx([5.0 + t / 2, 5.9 - t / 2], abs=1e-6)
-    assert [set(r.sides()) for r in inner] == [{"a", None}, {"b", None}]
+    assert [set(r.sides()) for r in inner] == [{"a", "b"}] * 2  # a door in one leads across the void
     outer = [Polygon(r.footprint()) for r in runs if r.external]
     for y in (-0.15, 6.15):  # the south and north envelope go on across the gap's ends
         assert any(p.contains(Point(5.45, y)) for p in outer), y
@@ -348,6 +348,12 @@ def test_a_shaft_enclosed_by_rooms_has_interior_walls_a_courtyard_exterior_ones(
     assert facing, [(r.a, r.b) for r in runs]
     if hole < WallRunParams().max_solid_thickness:
         assert not any(r.external for r in facing)
+        # named by their own room on both sides in the model: no adjacency to the exterior
+        m = building_elements(_model([fps[k] for k in ("s", "n", "w", "e")]), params=NO_SCAN)
+        inner = [w for w in m.walls if not w.attributes["external"]
+                 and max(abs(float(v)) for v in np.mean(w.attributes["axis_line"], axis=0)) < h + 0.35]
+        assert inner and all(len(set(w.attributes["sides"])) == 1 for w in inner)
+        assert not any(r.via in {w.id for w in inner} and "exterior" in r.a + r.b for r in m.relations)
     else:
         assert all(r.external for r in facing)
 
