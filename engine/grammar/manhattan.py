@@ -65,7 +65,7 @@ from .ends import UpperBand, free_wall_ends, heal_split_cells
 from .geometry import box_of
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
-from .passages import _SIDES, doorway_tops, enclosed_pockets, furniture_strips, wide_passages
+from .passages import _SIDES, doorway_tops, enclosed_pockets, furniture_strips, room_slices, wide_passages
 from .place import (StoreyFrame, detect_levels, given_frame, histogram_peaks, paired_faces, storey_chunks,
                     storey_frame)
 from .extent import FAR_POINTS, cell_lookup, closing_wall, scan_lines, seen_extent
@@ -354,13 +354,15 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
         if len(todo) > _SORT_PLANES:  # many planes: one sort, then bisection
             order = np.argsort(t)
             t, sel = t[order], sel[order]
-        for q in todo:
+        for q in todo:  # a wall's points count for the nearest plane (not a cut 5-10 cm off it too)
             w = planes[q]
+            lo = w - d if axis == 2 or q == 0 else max(w - d, 0.5 * (planes[q - 1] + w))
+            hi = w + d if axis == 2 or q == len(planes) - 1 else min(w + d, 0.5 * (w + planes[q + 1]))
             if len(todo) > _SORT_PLANES:
-                i0, i1 = np.searchsorted(t, [w - d, w + d])
+                i0, i1 = np.searchsorted(t, [lo, hi])
                 on = sel[i0:i1]
             else:  # a few planes: a scan of the points each costs less than the sort
-                on = sel[np.abs(t - w) <= d]
+                on = sel[(t >= lo) & (t <= hi)]
             out[q] = grid_face_index(p[on][:, (ucol, vcol)], u_edges, v_edges, spacing, margin)
         return out
 
@@ -423,6 +425,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             types[i, j, k] = ShapeType.WALL
             shapes[(i, j, k)] = s.logged(f"classify: wall junction, {walls} neighbouring walls -> wall",
                                          type=ShapeType.WALL, terminal=True)
+    room_slices(shapes, types, params)
     doorway_tops(shapes, types, lowest, X, Y, params, spacing, margin)
     wide_passages(shapes, types, params, upper)
     enclosed_pockets(shapes, types, params, seen_through(shapes, types, xyz, normals, X, Y, frame, storey,
@@ -655,7 +658,8 @@ def reconstruct_grammar(cloud: PointCloud, params: Optional[ManhattanParams] = N
     n_spaces = len(model.spaces)
     model = reject_implausible_spaces(model, params.min_space_width, params.min_space_area,
                                       params.min_space_height, params.tau,
-                                      min_floor_evidence=params.min_room_evidence)
+                                      min_floor_evidence=params.min_room_evidence,
+                                      furniture_area=params.max_furniture_area)
     model = _ceiling_confidence(model)
     for si, fits in roofs.items():
         model = slope_spaces(model, si, fits, spacing=spacing)

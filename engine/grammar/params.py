@@ -303,6 +303,11 @@ class ManhattanParams:
     under a partial top) are covered at most this much is no room part (a window head's
     soffit, an eave seen through glazing);
     0: the thesis's rule (a seen top alone makes it interior)."""
+    max_furniture_area: SquareMetres = 2.5
+    """A space on the floor up to this large whose floor is seen under at most
+    ``min_room_evidence`` of its footprint (its parts weighted by their area) is the inside of
+    furniture (a wardrobe in an alcove: a strip along its front catches the floor's noise),
+    not a room; larger ones only when no part's floor is seen, m²."""
     min_roof_area: SquareMetres = 2.0
     """A roof plane under which attic rooms are cut needs this much plan area of points."""
     level_cell: Metres = 0.25

@@ -1,8 +1,9 @@
 """Cuboids between rooms after the classification (docs/method.md §2): doorways whose top
 only the ceiling's noise made look seen (:func:`doorway_tops`), wide passages under a beam or
 a lintel that join two parts of an open plan (:func:`wide_passages`), narrow pockets of a
-room whose ceiling fell between a far scan's lines (:func:`enclosed_pockets`), and strips of
-a room behind tall furniture against a wall (:func:`furniture_strips`). They change
+room whose ceiling fell between a far scan's lines (:func:`enclosed_pockets`), slices of a
+room before its wall cut off by a wall line elsewhere (:func:`room_slices`), and strips of a
+room behind tall furniture against a wall (:func:`furniture_strips`). They change
 ``shapes`` / ``types`` of :func:`.manhattan.place_storey` in place."""
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from ..model import ShapeType
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams
 
-__all__ = ["doorway_tops", "wide_passages", "enclosed_pockets", "furniture_strips"]
+__all__ = ["doorway_tops", "wide_passages", "enclosed_pockets", "room_slices", "furniture_strips"]
 
 _BEAM_SHARE = 0.25
 """A wide passage's faces hold a surface near the ceiling along at least this share of it: a
@@ -292,6 +293,35 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams,
                 f"{s.id}, floor seen (IPoF(bottom)={s.support.get('ipof_bottom', 0.0):.2f}), closed by walls "
                 f"and rooms, open to a room (face {room}), ceiling unseen -> interior (lower confidence)",
                 type=ShapeType.INTERIOR, terminal=False, attributes={**c.attributes, "ceiling_seen": False})
+
+
+def room_slices(shapes: dict, types: np.ndarray, params: ManhattanParams) -> None:
+    """Slices of a room before its wall, in place (issue 19). A wall line elsewhere on the
+    storey (the other face of a party wall, a lining 10 cm proud) cuts the grid a few
+    centimetres before a room's wall: the cuboid between the two is thinner than a wall, its
+    ceiling too narrow to be seen near the wall, and its one seen face made it a wall — the
+    room lost the slice (Duplex: 10 cm of each bedroom along the party wall, and the end of a
+    window at the corner). A wall cuboid thin along one axis whose face on one side is seen
+    (IPoF ≥ τ) and on the other barely (< τ/2; its points count for the nearest cut only),
+    with an interior cuboid across the unseen face and none across the seen one, is that
+    room's slice: the surface was seen from the room, through it."""
+    tau = params.tau
+    for (i, j, k), s in list(shapes.items()):
+        ax = s.attributes.get("thin_axis")
+        if types[i, j, k] != ShapeType.WALL or ax not in (0, 1):
+            continue
+        lo_f, hi_f = (5, 3) if ax == 0 else (2, 4)
+        di, dj = (1, 0) if ax == 0 else (0, 1)
+        lo_q, hi_q = (i - di, j - dj, k), (i + di, j + dj, k)
+        f = {q: float(s.support.get(f"ipof_f{q}", 0.0)) for q in (lo_f, hi_f)}
+        for seen, free, seen_q, free_q in ((lo_f, hi_f, lo_q, hi_q), (hi_f, lo_f, hi_q, lo_q)):
+            if f[seen] >= tau and f[free] < tau / 2 and free_q in shapes and seen_q in shapes \
+                    and types[free_q] == ShapeType.INTERIOR and types[seen_q] != ShapeType.INTERIOR:
+                types[i, j, k] = ShapeType.INTERIOR
+                shapes[(i, j, k)] = s.logged(
+                    f"classify: a slice before a wall seen from the room beside it (IPoF {f[seen]:.2f} on "
+                    f"one side, {f[free]:.2f} on the room's) -> interior", type=ShapeType.INTERIOR, terminal=False)
+                break
 
 
 def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndarray, Y: np.ndarray,

@@ -448,7 +448,7 @@ def _equivalent_width(area: float, perimeter: float) -> float:
 
 def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: float, min_height: float,
                               tau: Optional[float] = None, *,
-                              min_floor_evidence: float = 0.0) -> BuildingModel:
+                              min_floor_evidence: float = 0.0, furniture_area: float = 0.0) -> BuildingModel:
     """Evidence rule for spaces (issue 19), a reclassification of parts followed by
     :func:`derive_topology`:
 
@@ -460,8 +460,10 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
     * one standing on its storey's floor whose floor is seen under none of its parts (every
       part's bottom IPoF at most ``min_floor_evidence``; 0 turns this off) is the inside of
       furniture up to near the ceiling (a wardrobe whose front the grid cut at a wall line
-      elsewhere; its top is the ceiling seen above it): its parts become exterior. A room
-      seen through a door shows some floor.
+      elsewhere; its top is the ceiling seen above it): its parts become exterior; so does
+      one up to ``furniture_area`` whose floor is seen under at most ``min_floor_evidence`` of
+      its footprint, its parts weighted by their area (a strip along a wardrobe's front
+      catches the floor's noise). A room seen through a door shows some floor.
 
     Models without parts are returned unchanged.
     """
@@ -491,9 +493,7 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
             kind, why = ShapeType.WALL, f"{width:.2f} m wide < {min_width} m: the gap inside a wall"
         elif height < min_height or area < min_area:
             kind, why = ShapeType.EXTERIOR, f"{area:.2f} m², {height:.2f} m high: too small or low for a room"
-        elif min_floor_evidence > 0 and all(m.grid is not None and m.grid[2] == 0
-                                            and float(m.support.get("ipof_bottom", 1.0)) <= min_floor_evidence
-                                            for m in members):
+        elif min_floor_evidence > 0 and _no_floor(members, area, min_floor_evidence, furniture_area):
             kind = ShapeType.EXTERIOR
             why = f"no floor seen under it (≤ {min_floor_evidence}): furniture, not a room"
         else:
@@ -504,6 +504,22 @@ def reject_implausible_spaces(model: BuildingModel, min_width: float, min_area: 
         return model
     log.info("evidence rule: %d part(s) of implausible spaces reclassified", len(new))
     return derive_topology(model.replace_shapes(*new), tau)
+
+
+def _no_floor(members: list[Shape], area: float, min_floor: float, furniture_area: float) -> bool:
+    """Whether a space of these parts stands on its storey's floor with no floor seen under
+    it: no part's floor index above ``min_floor``, or, up to ``furniture_area`` m², their
+    area-weighted mean at most that."""
+    if any(m.grid is None or m.grid[2] != 0 for m in members):
+        return False
+    bottom = np.array([float(m.support.get("ipof_bottom", 1.0)) for m in members])
+    if np.all(bottom <= min_floor):
+        return True
+    if area > furniture_area:
+        return False
+    b = np.stack([m.bounds for m in members])
+    w = np.prod(b[:, 1, :2] - b[:, 0, :2], axis=1)
+    return float(np.dot(w, bottom) / max(float(w.sum()), 1e-12)) <= min_floor
 
 
 def _width(sp: Shape) -> float:

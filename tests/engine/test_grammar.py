@@ -507,6 +507,32 @@ def test_a_narrow_pocket_closed_by_walls_and_open_to_a_room_is_part_of_it(width,
         assert strip.attributes["ceiling_seen"] is False and "closed by walls" in strip.log[-1]
 
 
+@pytest.mark.parametrize("beyond, free_face, expect", [
+    (ShapeType.EXTERIOR, 0.0, ShapeType.INTERIOR),  # the Duplex bedroom's slice before the party wall
+    (ShapeType.INTERIOR, 0.0, ShapeType.WALL),  # rooms both sides: seen from either, a wall
+    (ShapeType.EXTERIOR, 0.2, ShapeType.WALL)])  # something at the room's face: a wall's second face
+def test_a_slice_before_a_wall_seen_from_the_room_is_the_rooms(beyond, free_face, expect):
+    """party wall core | 10 cm slice | room along x: the slice's face on the wall is seen
+    (0.93), the one on the room not; the grid cut it off the room at a wall line elsewhere
+    (engine.grammar.passages.room_slices). It is the room's, unless a room lies beyond the
+    wall too or its face on the room holds a surface."""
+    from engine.grammar.geometry import box_of
+    from engine.grammar.passages import room_slices
+    from engine.model import Shape
+
+    xs = np.cumsum([0.0, 0.55, 0.1, 3.7])
+    kinds = (beyond, ShapeType.WALL, ShapeType.INTERIOR)
+    shapes, types = {}, np.empty((3, 1, 1), dtype=object)
+    for i, t in enumerate(kinds):
+        sup = {"ipof_bottom": 0.0, "ipof_top": 0.0, "ipof_f5": 0.93, "ipof_f3": free_face} if i == 1 else \
+            {"ipof_bottom": 0.9, "ipof_top": 0.9}
+        shapes[(i, 0, 0)] = Shape(id=f"c{i}", type=t, geometry=box_of((xs[i], 0, 0), (xs[i + 1], 5.0, 2.6)),
+                                  grid=(i, 0, 0), support=sup, attributes={"thin_axis": 0 if i == 1 else None})
+        types[i, 0, 0] = t
+    room_slices(shapes, types, ManhattanParams())
+    assert shapes[(1, 0, 0)].type == expect and types[1, 0, 0] == expect
+
+
 @pytest.mark.parametrize("gap, expect", [(0.06, ShapeType.INTERIOR), (0.12, ShapeType.EXTERIOR)])
 def test_a_pocket_behind_a_sliver_joins_the_room_with_it(gap, expect):
     """wall | pocket | gap | room along y: a 6 cm sliver (two cuts of one surface, thinner than

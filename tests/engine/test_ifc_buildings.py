@@ -197,6 +197,12 @@ def test_duplex_party_wall_is_modelled(noise):
             assert covered >= 0.8 * f.length, (w.name, covered, f.length)
         on_it = sum(p.intersection(r).area for r in rooms)
         assert on_it <= 0.1 * p.area, (w.name, on_it, p.area)
+        if z > 3.0:  # upstairs the bedrooms reach its faces: modelled 0.55 m thick (seed 2, TLS and
+            # mobile; 0.74 m before, each bedroom lost a 10 cm slice to a wall line 10 cm off the
+            # wall's face, engine.grammar.passages.room_slices). Downstairs: 0.65 and 0.74 m for
+            # 0.49 and 0.55, not asserted
+            best = max((x for x in m.walls if at(x, z)), key=lambda x: _plan(x, m).intersection(p).area)
+            assert abs(best.attributes["thickness"] - min(x1 - x0, y1 - y0)) <= 0.03, (w.name, best.id)
 
 
 @pytest.mark.slow

@@ -221,6 +221,30 @@ def test_a_space_with_no_floor_seen_is_furniture():
     assert len(model(0.05, evidence=0.0).spaces) == 2  # the rule off
 
 
+@pytest.mark.parametrize("size, strip_floor, furniture", [(1.52, 0.23, True), (1.52, 0.9, False),
+                                                         (4.0, 0.23, False)])
+def test_a_wardrobe_with_floor_noise_along_its_front_is_furniture(size, strip_floor, furniture):
+    """A wardrobe in an alcove: its body's part (no floor seen) and an 11 cm strip along its
+    front whose floor index the floor's noise raised (0.23, the Duplex's upper bedrooms at 100k
+    mobile points) are one 1.0 m² space: under max_furniture_area its floor is seen under
+    ~4 % of it (area-weighted), furniture (before: a room, the strip's floor counted); with the
+    strip's floor really seen (0.9) it stays, and so does a 2.7 m² one (above that size only a
+    space with no part's floor seen is furniture)."""
+    from engine.grammar.rules import reject_implausible_spaces
+
+    I, W = ShapeType.INTERIOR, ShapeType.WALL
+    body = _part(3, 0, (4.2, 0, 0), (4.2 + size, 0.56, 2.5), I, open_faces=(4,))
+    strip = _part(3, 1, (4.2, 0.56, 0), (4.2 + size, 0.67, 2.5), I, open_faces=(2,))
+    body = body.with_(support={**body.support, "ipof_f0": 0.0, "ipof_bottom": 0.0})
+    strip = strip.with_(support={**strip.support, "ipof_f0": strip_floor, "ipof_bottom": strip_floor})
+    shapes = [_part(0, 0, (0, 0, 0), (4, 3, 2.5), I), _part(2, 0, (4, 0, 0), (4.2, 3, 2.5), W), body, strip]
+    m = BuildingModel(shapes=tuple(shapes), provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
+    m = reject_implausible_spaces(derive_topology(m), 0.6, 1.0, 1.8, 0.3, min_floor_evidence=0.1,
+                                  furniture_area=2.5)
+    assert (m[body.id].type == ShapeType.EXTERIOR) == furniture
+    assert len(m.spaces) == (1 if furniture else 2)
+
+
 def test_a_strip_beside_a_cabinet_joins_its_room():
     """The evidence rule's narrow spaces (docs/method.md §2): a 0.42 m strip between a room and
     a partition, cut off by a cabinet's front (IPoF 0.36 ≥ τ), is a strip of the room when its
