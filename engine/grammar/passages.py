@@ -320,7 +320,8 @@ def room_slices(shapes: dict, types: np.ndarray, params: ManhattanParams) -> Non
                 types[i, j, k] = ShapeType.INTERIOR
                 shapes[(i, j, k)] = s.logged(
                     f"classify: a slice before a wall seen from the room beside it (IPoF {f[seen]:.2f} on "
-                    f"one side, {f[free]:.2f} on the room's) -> interior", type=ShapeType.INTERIOR, terminal=False)
+                    f"one side, {f[free]:.2f} on the room's) -> interior",
+                    type=ShapeType.INTERIOR, terminal=False)
                 break
 
 

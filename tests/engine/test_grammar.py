@@ -527,7 +527,8 @@ def test_a_slice_before_a_wall_seen_from_the_room_is_the_rooms(beyond, free_face
         sup = {"ipof_bottom": 0.0, "ipof_top": 0.0, "ipof_f5": 0.93, "ipof_f3": free_face} if i == 1 else \
             {"ipof_bottom": 0.9, "ipof_top": 0.9}
         shapes[(i, 0, 0)] = Shape(id=f"c{i}", type=t, geometry=box_of((xs[i], 0, 0), (xs[i + 1], 5.0, 2.6)),
-                                  grid=(i, 0, 0), support=sup, attributes={"thin_axis": 0 if i == 1 else None})
+                                  grid=(i, 0, 0), support=sup,
+                                  attributes={"thin_axis": 0 if i == 1 else None})
         types[i, 0, 0] = t
     room_slices(shapes, types, ManhattanParams())
     assert shapes[(1, 0, 0)].type == expect and types[1, 0, 0] == expect

@@ -238,7 +238,8 @@ def test_a_wardrobe_with_floor_noise_along_its_front_is_furniture(size, strip_fl
     body = body.with_(support={**body.support, "ipof_f0": 0.0, "ipof_bottom": 0.0})
     strip = strip.with_(support={**strip.support, "ipof_f0": strip_floor, "ipof_bottom": strip_floor})
     shapes = [_part(0, 0, (0, 0, 0), (4, 3, 2.5), I), _part(2, 0, (4, 0, 0), (4.2, 3, 2.5), W), body, strip]
-    m = BuildingModel(shapes=tuple(shapes), provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
+    m = BuildingModel(shapes=tuple(shapes),
+                      provenance=Provenance(method="manhattan", parameters={"tau": 0.3}))
     m = reject_implausible_spaces(derive_topology(m), 0.6, 1.0, 1.8, 0.3, min_floor_evidence=0.1,
                                   furniture_area=2.5)
     assert (m[body.id].type == ShapeType.EXTERIOR) == furniture
