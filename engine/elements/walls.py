@@ -36,6 +36,7 @@ from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.polygon import orient
 from shapely.ops import unary_union
 
+from ..geometry.boxes import box_sides
 from ..geometry.polygon import polygon_parts
 from ..model import BuildingModel, Shape
 from .params import WallRunParams
@@ -332,16 +333,10 @@ def _fill_holes(geom, width: float):
     minimum-area box): enclosed shafts and closets, not courtyards."""
     out = []
     for g in polygon_parts(geom):
-        keep = [h for h in g.interiors if min(_box_sides(Polygon(h))) > width]
+        keep = [h for h in g.interiors if box_sides(Polygon(h))[0] > width]
         out.append(Polygon(g.exterior, keep))
     return unary_union(out) if out else geom
 
-
-def _box_sides(poly: Polygon) -> tuple:
-    c = np.asarray(poly.minimum_rotated_rectangle.exterior.coords)
-    if len(c) < 4:
-        return (0.0, 0.0)
-    return float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1]))
 
 
 def _bridges_break(d, n, c: float, u0: float, u1: float, breaks) -> bool:

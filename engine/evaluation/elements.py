@@ -68,6 +68,7 @@ from shapely.geometry import LineString, Point
 from shapely.ops import unary_union
 
 from ..errors import InputError
+from ..geometry.boxes import box_sides
 from ..model import BuildingModel, Shape, ShapeType
 from .footprints import (_MITRE, _axis_attr, _exterior_adjacent, _in_truth_frame, _is_external, _plan,
                          _polygons, _storey_of, _truth_storey, _zrange, exterior_outline)
@@ -314,8 +315,7 @@ def _length_inside(w: Shape, plan, region) -> float:
         return float(LineString(a).intersection(region).length)
     t = w.attributes.get("thickness")
     if not isinstance(t, (int, float)) or not t > 0:
-        c = np.asarray(plan.minimum_rotated_rectangle.exterior.coords)
-        t = float(min(np.linalg.norm(c[1] - c[0]), np.linalg.norm(c[2] - c[1])))
+        t = box_sides(plan)[0]
     return float(plan.intersection(region).area / t) if t > 0 else 0.0
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["min_area_box", "column_min", "column_max"]
+__all__ = ["min_area_box", "box_sides", "column_min", "column_max"]
 
 
 def column_min(a: np.ndarray) -> np.ndarray:
@@ -67,3 +67,17 @@ def min_area_box(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
     origin2 = ax.T @ lo
     axes = np.array([[ax[0, 0], ax[0, 1], 0.0], [ax[1, 0], ax[1, 1], 0.0], [0.0, 0.0, 1.0]])
     return np.array([origin2[0], origin2[1], zmin]), axes, np.array([size2[0], size2[1], zmax - zmin])
+
+
+def box_sides(geom) -> tuple[float, float]:
+    """(shorter, longer) side of a shapely geometry's minimum-area bounding rectangle (shapely's
+    ``minimum_rotated_rectangle``; :func:`min_area_box` is the same box of an (n, 3) vertex
+    array), metres; (0, length) for a degenerate one, (0, 0) for an empty one."""
+    if geom is None or geom.is_empty:
+        return 0.0, 0.0
+    box = geom.minimum_rotated_rectangle
+    c = np.asarray(getattr(box, "exterior", box).coords)  # a line or a point when degenerate
+    if len(c) < 3:
+        return 0.0, float(np.linalg.norm(c[-1] - c[0]))
+    a, b = float(np.linalg.norm(c[1] - c[0])), float(np.linalg.norm(c[2] - c[1]))
+    return min(a, b), max(a, b)

@@ -46,6 +46,7 @@ from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points, unary_union
 
 from ..errors import FormatError, InputError
+from ..geometry.boxes import box_sides
 from ..ifc.common import check_path, require_ifcopenshell
 from ..ifc.reader import IfcReadParams, read_ifc
 from ..lazy_open3d import open3d
@@ -523,8 +524,7 @@ def _space_positions(sp: IfcSpaceArea, rays: _Rays, sparams: ScanParams, params:
         pts = np.column_stack([xy, np.full(len(xy), z)])
         ok = rays.free(pts, h, params, sparams.clutter_clearance * f)
         if ok.any():
-            cs = np.asarray(sp.footprint.minimum_rotated_rectangle.exterior.coords)
-            long_side = max(np.linalg.norm(cs[1] - cs[0]), np.linalg.norm(cs[2] - cs[1]))
+            long_side = box_sides(sp.footprint)[1]
             k = max(least, math.ceil(sp.footprint.area / (area_per or sparams.area_per_scan)),
                     math.ceil(long_side / sparams.max_scan_spacing))
             return _tour(_spread(pts[ok], k))

@@ -28,6 +28,7 @@ from shapely.geometry import Point
 from shapely.ops import unary_union
 
 from ..errors import InputError
+from ..geometry.boxes import box_sides
 from ..lazy_open3d import open3d
 from ..pointcloud import PointCloud
 from ..progress import Progress
@@ -225,9 +226,7 @@ def _room_positions(plan, room, params, clutter):
     if len(cands) == 0:
         log.warning("room %r has no free spot for a scanner; it stays unscanned", room.name)
         return cands
-    mrr = poly.minimum_rotated_rectangle
-    cs = np.asarray(mrr.exterior.coords)
-    long_side = max(np.linalg.norm(cs[1] - cs[0]), np.linalg.norm(cs[2] - cs[1]))
+    long_side = box_sides(poly)[1]
     k = max(1, math.ceil(poly.area / params.area_per_scan), math.ceil(long_side / params.max_scan_spacing))
     return _spread(cands, k)
 

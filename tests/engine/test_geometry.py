@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from engine.geometry.alpha import alpha_area, alpha_geometry, alpha_triangles, thin_grid
-from engine.geometry.boxes import min_area_box
+from engine.geometry.boxes import box_sides, min_area_box
 from engine.geometry.normals import knn_normals, knn_pca
 from engine.geometry.planes import plane_frame
 from engine.geometry.polygon import (area_3d, newell_normal, plan_area_perimeter, polygon_area,
@@ -450,3 +450,16 @@ def test_stable_argsort_is_numpys_stable_argsort(high):
         assert np.array_equal(stable_argsort(keys.astype(np.uint64)), np.argsort(keys, kind="stable"))
     neg = rng.integers(-5, 5, 1000)
     assert np.array_equal(stable_argsort(neg), np.argsort(neg, kind="stable"))
+
+
+def test_box_sides_of_a_turned_rectangle_a_line_and_nothing():
+    from shapely import affinity
+    from shapely.geometry import LineString, Polygon, box
+
+    r = affinity.rotate(box(0, 0, 3, 1), 30)
+    assert box_sides(r) == pytest.approx((1.0, 3.0), abs=1e-9)
+    v = np.column_stack([np.asarray(r.exterior.coords), np.zeros(5)])
+    # the same box; min_area_box rounds its angles to 1e-9 rad (1.2e-9 m here): 1 µm margin
+    assert sorted(min_area_box(v)[2][:2]) == pytest.approx(list(box_sides(r)), abs=1e-6)
+    assert box_sides(LineString([(0, 0), (3, 4)])) == pytest.approx((0.0, 5.0))
+    assert box_sides(Polygon()) == (0.0, 0.0)
