@@ -338,7 +338,6 @@ def _fill_holes(geom, width: float):
     return unary_union(out) if out else geom
 
 
-
 def _bridges_break(d, n, c: float, u0: float, u1: float, breaks) -> bool:
     """Whether the stretch u0..u1 of the line ``n·x = c`` (direction ``d``) crosses a break."""
     if not breaks or u1 <= u0:
