@@ -38,7 +38,8 @@ figures:
 * ``walls`` — model wall count vs the *true wall runs*: the truth's wall pieces merged into
   straight runs (parallel within ``run_angle``, centre lines within ``run_offset``, thickness
   within ``run_thickness``, same storey, overlapping, touching within ``run_gap`` or joined
-  through another wall's footprint, as at a T-junction).
+  through another wall's footprint, as at a T-junction); with ``seen``, those of the storeys
+  a scan reached.
 * ``connectivity`` — the room pairs joined by a door (the exterior is one node per storey) in
   the model and the truth, model rooms named after the true room they match (greedy by
   footprint IoU), the rooms of one open plan one node (as ``spaces`` counts them: a door into
@@ -46,7 +47,7 @@ figures:
   of them names the model's space); equal, missing and extra edges.
 
 With ``seen`` (the true spaces a scan reaches), storeys without a seen space are not scored
-for exterior walls, slabs, doors and windows — save a window standing over a seen room, at
+for exterior walls, slabs, wall runs, doors and windows — save a window standing over a seen room, at
 most 1.5 m above its top (a roof light filed under an unscanned roof level is seen from the
 room under it) — and unseen spaces are neither counted as rooms
 nor part of the outline: a door into one leads outside, to its storey's exterior node (a scan
@@ -493,7 +494,9 @@ def evaluate_elements(model: BuildingModel, truth: BuildingModel,
                               else f"exterior_s{_storey_of(truth[sid], truth)}")
     model_edges = _door_edges(model, truth, lambda sid: group.get(m2t[sid], m2t[sid]) if sid in m2t
                               else f"model:{sid}")
-    truth_runs = true_wall_runs(truth, params)
+    # a storey no scan reached has no walls to find (the Duplex's foundations and roof parapets)
+    truth_runs = [r for r in true_wall_runs(truth, params)
+                  if seen is None or _truth_storey(truth[r[0]], truth) in scored]
     model_runs = true_wall_runs(model, params)
     n_true_rooms = len(rooms)
     ious = {t: v for t, v in ious.items() if seen is None or t in seen}

@@ -431,6 +431,22 @@ def test_outline_spans_party_walls_and_stair_voids_and_skips_unseen_storeys():
     assert r["exterior"]["any_share"] == pytest.approx(1.0, abs=1e-9)
 
 
+def test_wall_runs_of_a_storey_no_scan_reached_are_not_counted():
+    """With ``seen``, the true wall runs of storeys without a seen space are left out, as their
+    exterior, slabs and openings are (the Duplex: foundation walls under its ground floor, the
+    parapets and skylight shafts of its roof level — 19 of its 55 runs no scanner can see)."""
+    from engine.evaluation.elements import true_wall_runs
+    from engine.evaluation.footprints import _truth_storey
+
+    truth, attic = _duplex_like()
+    runs = true_wall_runs(truth)
+    per = [_truth_storey(truth[r[0]], truth) for r in runs]
+    assert evaluate_elements(truth, truth)["walls"]["truth_runs"] == len(runs)
+    ground = {s.id for s in truth.spaces if _truth_storey(s, truth) == 0}
+    r = evaluate_elements(truth, truth, seen=ground)["walls"]
+    assert r["truth_runs"] == per.count(0) < len(runs)
+
+
 def test_a_door_into_an_open_plan_is_a_door_into_the_whole_plan():
     """The Duplex's foyer, living room and kitchen of a flat are one open plan (one room in the
     room scores). A model that has them as one space names it after the living room (the
