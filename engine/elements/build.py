@@ -79,7 +79,8 @@ def _span_sides(run_shape: Shape, u: float):
 def _wall_shape(run: WallRun, k: int, z0: float, z1: float, exterior_id: str) -> Shape:
     def named(this, other):  # a missing side: the exterior, or the void an interior wall faces
         return this if this is not None else exterior_id if run.external or other is None else other
-    sides = [named(*run.sides()), named(*run.sides()[::-1])]
+    left, right = run.sides()
+    sides = [named(left, right), named(right, left)]
     spans = [[float(u0), float(u1), named(lft, rgt), named(rgt, lft)] for u0, u1, lft, rgt in run.spans]
     kind = "Exterior wall" if run.external else "Wall"
     return Shape(f"wall_s{run.storey}_{k:03d}", ShapeType.WALL, Polyhedron.prism(run.footprint(), z0, z1),

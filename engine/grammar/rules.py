@@ -184,6 +184,15 @@ def part_relations(parts: list[Shape], tau: float, touching=None) -> tuple[list[
 
 
 # --------------------------------------------------------------------------- rules 5, 6
+def _plan_weighted(parts: list[Shape], key: str, default: float) -> float:
+    """The mean of a support figure (``key``, ``default`` when missing) over ``parts``, each
+    weighted by its plan area: the share of their plan it covers."""
+    b = _bounds_union(parts)
+    area = np.prod(b[:, 1, :2] - b[:, 0, :2], axis=1)
+    values = [float(m.support.get(key, default)) for m in parts]
+    return float(np.dot(area, values) / max(float(area.sum()), 1e-12))
+
+
 def _bounds_union(shapes: list[Shape]) -> np.ndarray:
     return np.stack([s.bounds for s in shapes])
 
@@ -517,9 +526,7 @@ def _no_floor(members: list[Shape], area: float, min_floor: float, furniture_are
         return True
     if area > furniture_area:
         return False
-    b = np.stack([m.bounds for m in members])
-    w = np.prod(b[:, 1, :2] - b[:, 0, :2], axis=1)
-    return float(np.dot(w, bottom) / max(float(w.sum()), 1e-12)) <= min_floor
+    return _plan_weighted(members, "ipof_bottom", 1.0) <= min_floor
 
 
 def _width(sp: Shape) -> float:
@@ -559,9 +566,7 @@ def _strip_join(members: list[Shape], by_grid: dict, tau: float, min_floor: floa
     # the share of the strip's plan whose ceiling is seen (the parts weighted by their area:
     # a 0.3 m part by the partition 0.52 seen and a 0.2 m one 0.84, two_storey_office TLS 5
     # at 100k points, is a strip 0.65 seen)
-    area = np.prod(b[:, 1, :2] - b[:, 0, :2], axis=1)
-    seen = [float(m.support.get("ipof_top", 0.0)) for m in members]
-    top = float(np.dot(area, seen) / max(area.sum(), 1e-12))
+    top = _plan_weighted(members, "ipof_top", 0.0)
     open_top = float(min(hi[:2] - lo[:2])) >= open_width and top >= 2.0 * tau
     mine = {m.id for m in members}
     # faces 2..5: −y, +x, +y, −x
