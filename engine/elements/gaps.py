@@ -201,13 +201,16 @@ def _outermost_line(rev, oth, ctr: float, take_max: bool, span: float, ends_face
 
 
 def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 0.0,
-              proud: Optional[np.ndarray] = None) -> Optional[float]:
+              proud: Optional[np.ndarray] = None, depth: Optional[np.ndarray] = None) -> Optional[float]:
     """Where the wall ends in ``coord`` within [lo, hi] (``other`` within [olo, ohi]): the
     median of the ``inside`` points of a reveal (a dense plane across the thickness, 1 cm
     histogram peak; looked for ``inward`` metres — the faces' noise tolerance — further into
     the hole too: a jamb on the candidate's cell edge falls either side of it; or, with fewer
     than six points, one scan line along the edge: four within 1 cm across a third of the
-    band), else where the face points end (a few strays beyond) plus the gap expected there."""
+    band), else where the face points end (a few strays beyond) plus the gap expected there.
+    ``depth`` (the ``inside`` points' depth behind the nearer face): a plane whose points all
+    stand well behind the face is a frame or lining set into the hole, and the wall ends where
+    its face does, further out."""
     band = (other >= olo) & (other <= ohi)
     m = (coord >= lo) & (coord <= hi) & band
     ext = 0.01 * math.ceil(inward / 0.01 - 1e-9)  # whole 1 cm bins: the histogram keeps its grid
@@ -247,10 +250,66 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
                 # house_multi_height mobile 4)
                 into, back = ends_face(ctr, 0.10)
                 if not (into >= 10 and into > 0.5 * back):
-                    return _outermost_line(rev, other[in_rev], ctr, take_max, 0.3 * (ohi - olo), ends_face)
+                    ctr = _outermost_line(rev, other[in_rev], ctr, take_max, 0.3 * (ohi - olo), ends_face)
+                    if depth is None or not _set_back(rev, depth[in_rev], ctr, take_max, inward):
+                        return ctr
+                    # the jamb seen starts deep in the thickness: a frame set into the hole, the
+                    # wall's own reveal seen on the face's plane only (FZK-Haus: a terrestrial
+                    # scan's 100k points, the reveal's first 2 cm; windows 7 cm narrow). The
+                    # wall ends where the face does, and the face's last points (that strip's)
+                    # stand at the edge: no gap added
+                    end = _face_end(coord, face, m & ~inside, lo, hi, take_max, None, settle=False)
+                    return ctr if end is None or (end > ctr if take_max else end < ctr) else end
+    return _face_end(coord, face, m & ~inside, lo, hi, take_max, proud)
+
+
+def round_hole(fu, fz, fin, el: float, er: float, eb: float, et: float, tol: float, proud, dev,
+               p) -> Optional[tuple]:
+    """A window measured (``el``, ``er``, ``eb``, ``et``) over its whole height and width that
+    is round or oval (FZK-Haus's Rundfenster read 0.8 m for 1.0): its extent across its
+    middle, else None. Each edge is measured in bands a fifth of the other side wide (at
+    least 10 cm): about the middle, and 0.3 of the side either way from it. Round: the
+    middle band's edges 3 cm or more further out than both others', across and up, on all
+    four sides (the same band and estimator: a scan's noise and spacing widen all three
+    alike, and a mobile scanner's rings thin one height only, not the head and sill too)."""
+    srch, out = p.edge_search, 0.03
+    hz, hu = max(0.05, (et - eb) / 10), max(0.05, (er - el) / 10)
+    zm, um = (eb + et) / 2, (el + er) / 2
+
+    def edges(coord, other, lo, hi, at, h):
+        return (hole_edge(coord, other, fin, lo - srch, lo + srch, at - h, at + h, True, tol, proud, dev),
+                hole_edge(coord, other, fin, hi - srch, hi + srch, at - h, at + h, False, tol, proud, dev))
+
+    def widest(coord, other, lo, hi, mid, h, span):
+        a, b = edges(coord, other, lo, hi, mid, h)
+        for f in (-0.3, 0.3):
+            fa, fb = edges(coord, other, lo, hi, mid + f * span, h)
+            if a is None or b is None or fa is None or fb is None or a > fa - out or b < fb + out:
+                return None
+        return a, b
+
+    across = widest(fu, fz, el, er, zm, hz, et - eb)
+    up = across and widest(fz, fu, eb, et, um, hu, er - el)
+    return None if not up else (across[0], across[1], up[0], up[1])
+
+
+def _set_back(rev: np.ndarray, depth: np.ndarray, ctr: float, take_max: bool, tol: float) -> bool:
+    """The jamb plane at ``ctr`` among the reveal points ``rev`` (``depth``: behind the nearer
+    face) is a frame set into the hole: its points stand well behind the face (a tenth or
+    fewer within 3 cm of the faces' noise tolerance ``tol``: the wall's own reveal runs up to
+    the face, and a mobile scan's spilled face points fall near it), and the hole goes on
+    outward of it (three points or more 2 cm or further out, as deep: the frame's front)."""
+    on = np.abs(rev - ctr) <= 0.035
+    out = ((rev < ctr - 0.02) if take_max else (rev > ctr + 0.02)) & (depth >= tol + 0.03)
+    return bool(on.any() and np.mean(depth[on] < tol + 0.03) <= 0.1 and out.sum() >= 3)
+
+
+def _face_end(coord, face, m, lo, hi, take_max, proud, settle: bool = True) -> Optional[float]:
+    """Where the face points ``m`` (within [lo, hi]) end walking into the hole, plus the gap
+    expected after the last one (``settle``); ``face``: the band's face coordinates (the
+    sampling's gap there), ``proud``: a casing's points."""
     # walking from the face into the hole, the face ends at the first gap much wider than
     # the spacing of the points before it, with only strays (a tenth) beyond
-    m &= ~inside  # glazing and leaves stand in the hole: only the faces end at its edge
     if not m.any():
         return None
     x = np.sort(coord[m] - lo if take_max else hi - coord[m])
@@ -260,6 +319,8 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
     gap = np.append(np.diff(x), np.inf)
     end = np.flatnonzero((gap > np.maximum(4 * sp, 0.03)) & (i >= min(2, n - 1)) & (i >= 0.9 * n - 1))
     k = int(end[0]) if len(end) else n - 1
+    if not settle:
+        return lo + float(x[k]) if take_max else hi - float(x[k])
     # the last point falls short of the edge by the gap expected at a random place of the
     # sampling pattern, Σg² / 2Σg over the face's points up to 0.5 m behind it: half the
     # spacing of scan lines along the edge (a terrestrial scanner's columns beside a jamb,

@@ -38,7 +38,7 @@ from ..geometry.boxes import column_max, column_min, min_area_box
 from ..geometry.sort import stable_argsort
 from ..model import Polyhedron, Shape, ShapeType, Storey
 from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_deficit, hole_edge, leaf_columns,
-                   leaf_needed, leaf_to_floor, near_points, observed_columns, on_solid)
+                   leaf_needed, leaf_to_floor, near_points, observed_columns, on_solid, round_hole)
 from .junctions import clear_of, hidden_columns
 from .leaves import flush_leaves
 from .overlap import admit, overlap
@@ -253,7 +253,8 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_count, tol: float,
                  behind=np.zeros((2, nu, nz)),
                  fu=u[either], fz=z[either], scans=scans,
                  fcls=np.where(edge[0], 0, np.where(edge[1], 1, 2))[either].astype(np.int8),
-                 fdev=np.where(edge[0], vl - v, np.where(edge[1], v - vr, 0.0))[either])
+                 fdev=np.where(edge[0], vl - v,  # inside the thickness: behind the nearer face
+                               np.where(edge[1], v - vr, np.minimum(vl - v, v - vr)))[either])
 
 
 def _wall_of_points(walls: list[_Wall], idx: list, xyz: np.ndarray, tol: float) -> np.ndarray:
@@ -418,14 +419,15 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     floor_reach, ceil_reach = zb - z0 <= p.floor_tolerance, z1 - zt <= p.ceiling_tolerance
     cls = dd.fcls
     keep = (cls == side) if side is not None else (cls == 2) | np.isin(cls, _inner_faces(obs, c0, c1, outer))
-    keep &= dd.fdev < tol / 2  # the face's core and casings: few strays from a leaf or jamb behind it
+    keep &= (dd.fdev < tol / 2) | (cls == 2)  # the face's core and casings: few strays from a leaf behind it
     if leafy:
         keep &= cls != 2
     fu, fz, fin = dd.fu[keep], dd.fz[keep], cls[keep] == 2
-    proud = dd.fdev[keep] < -min(tol, 0.45 * (w.faces[0] - w.faces[1]))  # a casing's
+    dev = dd.fdev[keep]
+    proud = dev < -min(tol, 0.45 * (w.faces[0] - w.faces[1]))  # a casing's
     zlo, zhi = (z0 + p.edge_band if floor_reach else zb) + 0.05, zt - 0.05
-    el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol, proud)
-    er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol, proud)
+    el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol, proud, dev)
+    er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol, proud, dev)
     el = max(ul - c if el is None else max(el, ul - srch), 0.0)  # not past the run's ends
     er = min(ur + c if er is None else min(er, ur + srch), w.length)
     if dd.hidden is not None:  # ... nor into a wall standing against a face
@@ -433,10 +435,13 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     if er <= el:
         return None
     across = (el + 0.05, er - 0.05)
-    et = z1 if ceil_reach else hole_edge(fz, fu, fin, zt - c, zt + srch, *across, False, tol, proud)
+    et = z1 if ceil_reach else hole_edge(fz, fu, fin, zt - c, zt + srch, *across, False, tol, proud, dev)
     et = zt + c if et is None else et
-    eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, *across, True, tol, proud)
+    eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, *across, True, tol, proud, dev)
     eb = zb - c if eb is None else eb
+    rnd = None if floor_reach or ceil_reach else round_hole(fu, fz, fin, el, er, eb, et, tol, proud, dev, p)
+    if rnd:
+        el, er, eb, et = max(rnd[0], 0.0), min(rnd[1], w.length), rnd[2], rnd[3]
     width = er - el
     if floor_reach and side is None and not leafy:
         # the material under the hole: the floor through a doorway, a sill's top under a window
@@ -556,8 +561,11 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
         occluded = occluded and f_front >= p.max_front_cover
     # a half-shadowed door or window is no occlusion when rays pass through it and its jambs
     # and head stand inside the thickness: a shadow has neither (the shadowed share still
-    # lowers the confidence); a wide "opening" may be a door joined to the shadow beside it
-    occluded &= not (kind != "opening" and f_through >= p.min_seen_through and f_reveal >= p.reveal_share)
+    # lowers the confidence); a wide "opening" may be a door joined to the shadow beside it,
+    # one a door wide is a door whose lintel the scan missed (Duplex TLS 100k: a terrace door
+    # 20 cm under the ceiling, no face point above it, both jambs seen)
+    occluded &= not ((kind != "opening" or er - el <= p.max_door_width) and f_through >= p.min_seen_through
+                     and f_reveal >= p.reveal_share)
     # (a stand-in's lines pass between a sparse leaf's points: they prove no open door)
     closed = kind == "door" and any(f >= need for f, need in cover) and (f_through < p.min_seen_through
                                                                         or dd.stand_in)

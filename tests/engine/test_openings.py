@@ -1136,3 +1136,74 @@ def test_one_face_point_by_the_hole_still_places_its_edge():
     other = np.array([1.60, 1.61, 1.58])
     found = hole_edge(coord, other, np.zeros(3, bool), 1.85, 2.25, 1.2, 2.0, True, 0.03)
     assert found is not None and abs(found - 1.95) <= 0.08  # before: None (the cells' edge, 2.15)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_frame_set_back_in_the_hole_ends_where_the_face_does(seed):
+    """FZK-Haus, a terrestrial scan at 100k points: a window's frame stands 10.5 cm behind the
+    inner face and 7 cm into the hole. Its inner edge is the one plane inside the thickness;
+    the wall's own reveal shows only as the face's last column (its first 1.5 cm, within the
+    face tolerance), and three points on the frame's front stand between the two. The hole
+    ends at the face's end (the windows read 7-12 cm narrow). A plane as deep in the
+    thickness with nothing outward of it (the outer reveal, seen through the glazing) is the
+    edge, however far short of it the sparse face ends."""
+    from engine.elements.gaps import hole_edge
+
+    rng = np.random.default_rng(seed)
+    face = np.r_[np.repeat([6.08, 6.21, 6.34], 6), 6.497 + rng.normal(0, 0.002, 8)]
+    fz = np.r_[np.tile(np.linspace(1.0, 1.9, 6), 3), np.linspace(1.0, 1.9, 8)]
+    frame = 6.57 + rng.normal(0, 0.002, 10)
+    front = rng.uniform(6.52, 6.545, 3)
+    coord = np.r_[face, frame, front]
+    other = np.r_[fz, rng.uniform(1.0, 1.9, 13)]
+    inside = np.r_[np.zeros(26, bool), np.ones(13, bool)]
+    depth = np.r_[np.zeros(26), rng.uniform(0.105, 0.12, 10), np.full(3, 0.105)]
+    found = hole_edge(coord, other, inside, 6.2, 6.6, 0.95, 1.95, True, 0.015, None, depth)
+    assert abs(found - 6.497) <= 0.01  # before: 6.57 (the frame)
+    seen_deep = np.r_[np.ones(36, bool), np.zeros(3, bool)]  # the outer reveal: no front
+    found = hole_edge(coord[seen_deep], other[seen_deep], inside[seen_deep], 6.2, 6.6, 0.95, 1.95, True,
+                      0.015, None, depth[seen_deep])
+    assert abs(found - 6.57) <= 0.01
+
+
+def _round_window(rng, radius: float, square: bool):
+    """A wall's face points (u, z) about a hole centred at (5.0, 1.5): a circle of ``radius`` or
+    a square of side 2 ``radius``; its reveal (inside the thickness) on the rim, 10 cm deep."""
+    u, z = rng.uniform(3.8, 6.2, 5000), rng.uniform(0.5, 2.5, 5000)
+    du, dz = u - 5.0, z - 1.5
+    hole = (np.maximum(np.abs(du), np.abs(dz)) < radius) if square else (np.hypot(du, dz) < radius)
+    u, z = u[~hole], z[~hole]
+    t = rng.uniform(0, 2 * np.pi, 400)
+    if square:
+        s = rng.uniform(-radius, radius, 400)
+        side = rng.integers(0, 4, 400)
+        ru = np.where(side == 0, -radius, np.where(side == 1, radius, s))
+        rz = np.where(side == 2, -radius, np.where(side == 3, radius, s))
+    else:
+        ru, rz = radius * np.cos(t), radius * np.sin(t)
+    fu = np.r_[u, 5.0 + ru + rng.normal(0, 0.002, 400)]
+    fz = np.r_[z, 1.5 + rz + rng.normal(0, 0.002, 400)]
+    fin = np.r_[np.zeros(len(u), bool), np.ones(400, bool)]
+    dev = np.r_[np.zeros(len(u)), rng.uniform(0.02, 0.1, 400)]
+    return fu, fz, fin, dev
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_round_window_is_as_wide_as_its_middle(seed):
+    """FZK-Haus's round windows (1.0 m across) read 0.76-0.89 m: their edges were measured
+    over the height of the rectangle the raster found in the circle, where the rim is closer
+    in. Wider across its middle than 0.3 of its height above and below it, and higher in the
+    middle than 0.3 of its width to either side, the hole is round: its extent is read across
+    its middle. A square hole measured over its whole height is left as it is."""
+    from engine.elements.gaps import round_hole
+    from engine.elements.params import OpeningParams
+
+    p = OpeningParams()
+    rng = np.random.default_rng(seed)
+    fu, fz, fin, dev = _round_window(rng, 0.5, False)
+    proud = np.zeros(len(fu), bool)
+    got = round_hole(fu, fz, fin, 4.6, 5.4, 1.1, 1.9, 0.015, proud, dev, p)  # the inner square's reading
+    assert got is not None
+    assert np.allclose(got, (4.5, 5.5, 1.0, 2.0), atol=0.02), got
+    fu, fz, fin, dev = _round_window(rng, 0.5, True)
+    assert round_hole(fu, fz, fin, 4.5, 5.5, 1.0, 2.0, 0.015, np.zeros(len(fu), bool), dev, p) is None
