@@ -251,6 +251,9 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
                 into, back = ends_face(ctr, 0.10)
                 if not (into >= 10 and into > 0.5 * back):
                     ctr = _outermost_line(rev, other[in_rev], ctr, take_max, 0.3 * (ohi - olo), ends_face)
+                    if (pier := _pier(coord[band & ~inside], other[band & ~inside], ctr, take_max,
+                                      max(0.035, 1.5 * inward), 0.3 * (ohi - olo))) is not None:
+                        return pier
                     if depth is None or not _set_back(rev, depth[in_rev], ctr, take_max, inward):
                         return ctr
                     # the jamb seen starts deep in the thickness: a frame set into the hole, the
@@ -260,7 +263,18 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
                     # stand at the edge: no gap added
                     end = _face_end(coord, face, m & ~inside, lo, hi, take_max, None, settle=False)
                     return ctr if end is None or (end > ctr if take_max else end < ctr) else end
-    return _face_end(coord, face, m & ~inside, lo, hi, take_max, proud)
+    end = _face_end(coord, face, m & ~inside, lo, hi, take_max, proud)
+    if end is None or depth is None:
+        return end
+    # the gap expected after the face's last point stops at what stands in the hole: the
+    # second point (one may stray) inside the thickness past the face's last one, too deep
+    # for a face's spilled noise (a reveal, a frame, glazing)
+    last = _face_end(coord, face, m & ~inside, lo, hi, take_max, proud, settle=False)
+    sel = m & inside & (depth >= inward + 0.03) & ((coord > last) if take_max else (coord < last))
+    cs = np.sort(coord[sel]) if take_max else -np.sort(-coord[sel])  # from the wall's side
+    if len(cs) < 2:
+        return end
+    return min(end, cs[1]) if take_max else max(end, cs[1])
 
 
 def round_hole(fu, fz, fin, el: float, er: float, eb: float, et: float, tol: float, proud, dev,
@@ -291,6 +305,21 @@ def round_hole(fu, fz, fin, el: float, er: float, eb: float, et: float, tol: flo
     across = widest(fu, fz, el, er, zm, hz, et - eb)
     up = across and widest(fz, fu, eb, et, um, hu, er - el)
     return None if not up else (across[0], across[1], up[0], up[1])
+
+
+def _pier(face: np.ndarray, oth: np.ndarray, ctr: float, take_max: bool, near: float,
+          span: float) -> Optional[float]:
+    """The end of a pier's face on the hole's side of a jamb plane at ``ctr``: six face points
+    or more (``face`` along the edge, ``oth`` across) ``near`` or further from the plane
+    towards the hole, over ``span`` of the band, and within 15 cm of it: the face resumes
+    before the plane, which is the far jamb of the pier, the next hole's (the Duplex's
+    terrace doors 10 cm beside the glazing: the door measured to the glazing's jamb, 13 cm
+    wide); else None. A jamb's spilled noise stays within ``near``."""
+    d = (face - ctr) if take_max else (ctr - face)  # > 0: towards the hole
+    on = (d > near) & (d <= 0.15)
+    if on.sum() < 6 or np.ptp(oth[on]) < span:
+        return None
+    return float(face[on].max() if take_max else face[on].min())
 
 
 def _set_back(rev: np.ndarray, depth: np.ndarray, ctr: float, take_max: bool, tol: float) -> bool:

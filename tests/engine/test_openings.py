@@ -1207,3 +1207,32 @@ def test_a_round_window_is_as_wide_as_its_middle(seed):
     assert np.allclose(got, (4.5, 5.5, 1.0, 2.0), atol=0.02), got
     fu, fz, fin, dev = _round_window(rng, 0.5, True)
     assert round_hole(fu, fz, fin, 4.5, 5.5, 1.0, 2.0, 0.015, np.zeros(len(fu), bool), dev, p) is None
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_pier_between_two_holes_ends_the_first(seed):
+    """The Duplex's terrace door (right edge at 3.33) stands 10 cm from a glazed wall (from
+    3.43): the glazing's jamb is the one plane in the thickness near the door's right edge,
+    and the pier's face between the two holes is a terrestrial scan's column or two. The door
+    ends at the pier, not at the glazing's jamb (13 cm too wide). A jamb whose face comes up
+    to it, and a mobile scan's noise spilled past a jamb, stay the edge."""
+    from engine.elements.gaps import hole_edge
+
+    rng = np.random.default_rng(seed)
+    pier = np.r_[3.40 + rng.normal(0, 0.002, 9), 3.44 + rng.normal(0, 0.002, 5)]
+    jamb = 3.46 + rng.normal(0, 0.002, 9)
+    coord = np.r_[pier, jamb]
+    other = np.r_[rng.uniform(0.3, 2.0, 14), rng.uniform(0.3, 2.0, 9)]
+    inside = np.r_[np.zeros(14, bool), np.ones(9, bool)]
+    found = hole_edge(coord, other, inside, 3.10, 3.50, 0.25, 2.05, False, 0.015)
+    assert 3.33 <= found <= 3.41  # before: 3.46 (the glazing's jamb)
+    face = rng.uniform(3.33, 3.8, 300)  # the wall from the jamb at 3.33 on
+    coord = np.r_[face, 3.33 + rng.normal(0, 0.002, 9)]
+    other = rng.uniform(0.3, 2.0, 309)
+    inside = np.r_[np.zeros(300, bool), np.ones(9, bool)]
+    assert abs(hole_edge(coord, other, inside, 3.10, 3.50, 0.25, 2.05, False, 0.015) - 3.33) <= 0.01
+    face = rng.uniform(3.33, 3.8, 300) + rng.normal(0, 0.02, 300)  # mobile: σ 2 cm
+    coord = np.r_[face, 3.33 + rng.normal(0, 0.02, 60)]
+    other = rng.uniform(0.3, 2.0, 360)
+    inside = np.r_[np.zeros(300, bool), np.ones(60, bool)]
+    assert abs(hole_edge(coord, other, inside, 3.10, 3.50, 0.25, 2.05, False, 0.04) - 3.33) <= 0.015
