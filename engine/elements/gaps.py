@@ -311,13 +311,16 @@ def _pier(face: np.ndarray, oth: np.ndarray, ctr: float, take_max: bool, near: f
           span: float) -> Optional[float]:
     """The end of a pier's face on the hole's side of a jamb plane at ``ctr``: six face points
     or more (``face`` along the edge, ``oth`` across) ``near`` or further from the plane
-    towards the hole, over ``span`` of the band, and within 15 cm of it: the face resumes
-    before the plane, which is the far jamb of the pier, the next hole's (the Duplex's
-    terrace doors 10 cm beside the glazing: the door measured to the glazing's jamb, 13 cm
-    wide); else None. A jamb's spilled noise stays within ``near``."""
+    towards the hole, over ``span`` of the band, and within 15 cm of it, with next to no
+    face behind the plane (a quarter as many points within 30 cm): the face resumes before
+    the plane, which is the far jamb of the pier, the next hole's (the Duplex's terrace doors
+    10 cm beside the glazing: the door measured to the glazing's jamb, 13 cm wide); else
+    None. A jamb's spilled noise stays within ``near``; a door frame's face flush with the
+    plaster stands in the hole with the wall's face behind its jamb (FZK-Haus)."""
     d = (face - ctr) if take_max else (ctr - face)  # > 0: towards the hole
     on = (d > near) & (d <= 0.15)
-    if on.sum() < 6 or np.ptp(oth[on]) < span:
+    behind = (d < -near) & (d > -0.30)  # a wall's face behind a jamb; the next hole behind a pier's
+    if on.sum() < 6 or np.ptp(oth[on]) < span or behind.sum() > 0.25 * on.sum():
         return None
     return float(face[on].max() if take_max else face[on].min())
 

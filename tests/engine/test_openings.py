@@ -1215,7 +1215,8 @@ def test_a_pier_between_two_holes_ends_the_first(seed):
     3.43): the glazing's jamb is the one plane in the thickness near the door's right edge,
     and the pier's face between the two holes is a terrestrial scan's column or two. The door
     ends at the pier, not at the glazing's jamb (13 cm too wide). A jamb whose face comes up
-    to it, and a mobile scan's noise spilled past a jamb, stay the edge."""
+    to it, a mobile scan's noise spilled past a jamb, and a door frame's face flush with the
+    plaster in the hole with the wall behind the jamb (FZK-Haus) leave the jamb the edge."""
     from engine.elements.gaps import hole_edge
 
     rng = np.random.default_rng(seed)
@@ -1236,3 +1237,8 @@ def test_a_pier_between_two_holes_ends_the_first(seed):
     other = rng.uniform(0.3, 2.0, 360)
     inside = np.r_[np.zeros(300, bool), np.ones(60, bool)]
     assert abs(hole_edge(coord, other, inside, 3.10, 3.50, 0.25, 2.05, False, 0.04) - 3.33) <= 0.015
+    frame = np.r_[3.27 + rng.normal(0, 0.002, 9), 3.28 + rng.normal(0, 0.002, 8)]  # 5 cm inside
+    coord = np.r_[frame, rng.uniform(3.36, 3.6, 60), 3.33 + rng.normal(0, 0.002, 9)]
+    other = rng.uniform(0.3, 2.0, 86)
+    inside = np.r_[np.zeros(77, bool), np.ones(9, bool)]
+    assert abs(hole_edge(coord, other, inside, 3.10, 3.50, 0.25, 2.05, False, 0.015) - 3.33) <= 0.01
