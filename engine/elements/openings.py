@@ -198,6 +198,7 @@ class _Data:
     rays: bool = False
     stand_in: bool = False     # the rays come from stand-in scanners (lines of sight), not a scan
     hidden: np.ndarray = None  # (nu,) columns where another wall stands against a face
+    cross: list = None         # ray test: (u, z) where rays through the wall cross a face, metres
 
 
 def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_count, tol: float,
@@ -365,6 +366,8 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
                     + np.clip(((zc[ok] - w.floor_z) / c).astype(np.int64), 0, nz - 1))
             is_thr = thr[m][ok]
             dd.through[s] += np.bincount(flat[is_thr], minlength=nu * nz).reshape(nu, nz)
+            if not stand_in:
+                dd.cross = (dd.cross or []) + [np.c_[uc[ok][is_thr], zc[ok][is_thr]]]
             shade, wk = ~is_thr, wall_k[sel][m][ok]
             other = shade & (wk >= 0) & (wk != wi)
             if other.any():
@@ -426,8 +429,10 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     dev = dd.fdev[keep]
     proud = dev < -min(tol, 0.45 * (w.faces[0] - w.faces[1]))  # a casing's
     zlo, zhi = (z0 + p.edge_band if floor_reach else zb) + 0.05, zt - 0.05
-    el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol, proud, dev)
-    er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol, proud, dev)
+    cr = np.concatenate(dd.cross) if dd.cross else np.zeros((0, 2))  # where rays pass the faces
+    pu = cr[(cr[:, 1] >= zlo) & (cr[:, 1] <= zhi), 0]
+    el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol, proud, dev, pu)
+    er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol, proud, dev, pu)
     el = max(ul - c if el is None else max(el, ul - srch), 0.0)  # not past the run's ends
     er = min(ur + c if er is None else min(er, ur + srch), w.length)
     if dd.hidden is not None:  # ... nor into a wall standing against a face
@@ -435,9 +440,10 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     if er <= el:
         return None
     across = (el + 0.05, er - 0.05)
-    et = z1 if ceil_reach else hole_edge(fz, fu, fin, zt - c, zt + srch, *across, False, tol, proud, dev)
+    pz = cr[(cr[:, 0] >= across[0]) & (cr[:, 0] <= across[1]), 1]
+    et = z1 if ceil_reach else hole_edge(fz, fu, fin, zt - c, zt + srch, *across, False, tol, proud, dev, pz)
     et = zt + c if et is None else et
-    eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, *across, True, tol, proud, dev)
+    eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, *across, True, tol, proud, dev, pz)
     eb = zb - c if eb is None else eb
     rnd = None if floor_reach or ceil_reach else round_hole(fu, fz, fin, el, er, eb, et, tol, proud, dev, p)
     if rnd:

@@ -1242,3 +1242,29 @@ def test_a_pier_between_two_holes_ends_the_first(seed):
     other = rng.uniform(0.3, 2.0, 86)
     inside = np.r_[np.zeros(77, bool), np.ones(9, bool)]
     assert abs(hole_edge(coord, other, inside, 3.10, 3.50, 0.25, 2.05, False, 0.015) - 3.33) <= 0.01
+
+
+def test_the_gap_after_a_face_stops_where_rays_pass_or_the_hole_shows():
+    """A terrestrial scan's face in columns 20 cm apart whose last column stands 1 cm from the
+    jamb at 2.0: the gap expected after it (half a spacing and more) puts the edge 10 cm into
+    the hole. Rays through the hole crossing the face at 2.02 and on, or two points inside
+    the thickness too deep for spilled noise (a reveal, glazing), stop it there; one stray,
+    or points as shallow as a face's noise, do not."""
+    from engine.elements.gaps import hole_edge
+
+    rng = np.random.default_rng(0)
+    face = np.repeat([1.39, 1.59, 1.79, 1.99], 6) + rng.normal(0, 0.001, 24)
+    fz = np.tile(np.linspace(1.0, 1.9, 6), 4)
+    args = (face, fz, np.zeros(24, bool), 1.65, 2.25, 0.95, 1.95, True, 0.015)
+    alone = hole_edge(*args)
+    assert alone > 2.06  # the gap added: half of 20 cm and more
+    assert abs(hole_edge(*args, None, np.zeros(24), np.array([2.02, 2.05, 2.3])) - 2.05) <= 0.005
+    assert hole_edge(*args, None, np.zeros(24), np.array([2.02])) == alone  # one stray ray
+    coord, other = np.r_[face, 2.03, 2.04], np.r_[fz, 1.2, 1.7]
+    inside = np.r_[np.zeros(24, bool), True, True]
+    deep = hole_edge(coord, other, inside, 1.65, 2.25, 0.95, 1.95, True, 0.015, None,
+                     np.r_[np.zeros(24), 0.1, 0.12])
+    assert abs(deep - 2.04) <= 0.005
+    shallow = hole_edge(coord, other, inside, 1.65, 2.25, 0.95, 1.95, True, 0.015, None,
+                        np.r_[np.zeros(24), 0.02, 0.03])
+    assert shallow == alone
