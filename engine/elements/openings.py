@@ -366,8 +366,7 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
                     + np.clip(((zc[ok] - w.floor_z) / c).astype(np.int64), 0, nz - 1))
             is_thr = thr[m][ok]
             dd.through[s] += np.bincount(flat[is_thr], minlength=nu * nz).reshape(nu, nz)
-            if not stand_in:
-                dd.cross = (dd.cross or []) + [np.c_[uc[ok][is_thr], zc[ok][is_thr]]]
+            dd.cross = (dd.cross or []) + ([] if stand_in else [np.c_[uc[ok][is_thr], zc[ok][is_thr]]])
             shade, wk = ~is_thr, wall_k[sel][m][ok]
             other = shade & (wk >= 0) & (wk != wi)
             if other.any():
@@ -445,7 +444,7 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     et = zt + c if et is None else et
     eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, *across, True, tol, proud, dev, pz)
     eb = zb - c if eb is None else eb
-    rnd = None if floor_reach or ceil_reach else round_hole(fu, fz, fin, el, er, eb, et, tol, proud, dev, p)
+    rnd = not (floor_reach or ceil_reach) and round_hole(fu, fz, fin, el, er, eb, et, tol, proud, dev, p)
     if rnd:
         el, er, eb, et = max(rnd[0], 0.0), min(rnd[1], w.length), rnd[2], rnd[3]
     width = er - el
@@ -568,8 +567,7 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
     # a half-shadowed door or window is no occlusion when rays pass through it and its jambs
     # and head stand inside the thickness: a shadow has neither (the shadowed share still
     # lowers the confidence); a wide "opening" may be a door joined to the shadow beside it,
-    # one a door wide is a door whose lintel the scan missed (Duplex TLS 100k: a terrace door
-    # 20 cm under the ceiling, no face point above it, both jambs seen)
+    # one a door wide is a door whose lintel the scan missed (docs/method.md §7.3)
     occluded &= not ((kind != "opening" or er - el <= p.max_door_width) and f_through >= p.min_seen_through
                      and f_reveal >= p.reveal_share)
     # (a stand-in's lines pass between a sparse leaf's points: they prove no open door)
