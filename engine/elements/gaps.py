@@ -263,17 +263,20 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
                     # scan's 100k points, the reveal's first 2 cm; windows 7 cm narrow). The
                     # wall ends where the face does, and the face's last points (that strip's)
                     # stand at the edge: no gap added
-                    end = _face_end(coord, face, m & ~inside, lo, hi, take_max, None, settle=False)
+                    ends = _face_end(coord, face, m & ~inside, lo, hi, take_max, proud)
+                    end = None if ends is None else ends[0]
                     return ctr if end is None or (end > ctr if take_max else end < ctr) else end
-    end = _face_end(coord, face, m & ~inside, lo, hi, take_max, proud)
-    if end is None or (depth is None and passed is None):
+    ends = _face_end(coord, face, m & ~inside, lo, hi, take_max, proud)
+    if ends is None:
+        return None
+    last, end = ends
+    if depth is None and passed is None:
         return end
     # the gap expected after the face's last point stops at what stands in the hole: the
     # second point (one may stray) inside the thickness past the face's last one, too deep
     # for a face's spilled noise (a reveal, a frame, glazing), or where a ray passed the face
     # (two_storey_office TLS at 100k points: the faces' last columns 0-2 cm from the jambs,
     # the gap added 8-10 cm, windows 10-16 cm narrow)
-    last = _face_end(coord, face, m & ~inside, lo, hi, take_max, proud, settle=False)
     hole = [] if depth is None else [coord[m & inside & (depth >= inward + 0.03)]]
     if passed is not None:
         hole.append(passed[(passed >= lo) & (passed <= hi)])
@@ -344,10 +347,10 @@ def _set_back(rev: np.ndarray, depth: np.ndarray, ctr: float, take_max: bool, to
     return bool(on.any() and np.mean(depth[on] < tol + 0.03) <= 0.1 and out.sum() >= 3)
 
 
-def _face_end(coord, face, m, lo, hi, take_max, proud, settle: bool = True) -> Optional[float]:
-    """Where the face points ``m`` (within [lo, hi]) end walking into the hole, plus the gap
-    expected after the last one (``settle``); ``face``: the band's face coordinates (the
-    sampling's gap there), ``proud``: a casing's points."""
+def _face_end(coord, face, m, lo, hi, take_max, proud) -> Optional[tuple]:
+    """Where the face points ``m`` (within [lo, hi]) end walking into the hole: the last one,
+    and it plus the gap expected after it; ``face``: the band's face coordinates (the
+    sampling's gap there), ``proud``: a casing's points; None without points."""
     # walking from the face into the hole, the face ends at the first gap much wider than
     # the spacing of the points before it, with only strays (a tenth) beyond
     if not m.any():
@@ -359,8 +362,6 @@ def _face_end(coord, face, m, lo, hi, take_max, proud, settle: bool = True) -> O
     gap = np.append(np.diff(x), np.inf)
     end = np.flatnonzero((gap > np.maximum(4 * sp, 0.03)) & (i >= min(2, n - 1)) & (i >= 0.9 * n - 1))
     k = int(end[0]) if len(end) else n - 1
-    if not settle:
-        return lo + float(x[k]) if take_max else hi - float(x[k])
     # the last point falls short of the edge by the gap expected at a random place of the
     # sampling pattern, Σg² / 2Σg over the face's points up to 0.5 m behind it: half the
     # spacing of scan lines along the edge (a terrestrial scanner's columns beside a jamb,
@@ -375,7 +376,7 @@ def _face_end(coord, face, m, lo, hi, take_max, proud, settle: bool = True) -> O
         if (xp >= x[k] - 0.01).any():
             after = float(sp[k])
     e = min(float(x[k] + after), hi - lo)
-    return lo + e if take_max else hi - e
+    return (lo + float(x[k]), lo + e) if take_max else (hi - float(x[k]), hi - e)
 
 
 def near_points(a: np.ndarray, k: int = 3) -> np.ndarray:

@@ -39,6 +39,7 @@ from ..geometry.sort import stable_argsort
 from ..model import Polyhedron, Shape, ShapeType, Storey
 from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_deficit, hole_edge, leaf_columns,
                    leaf_needed, leaf_to_floor, near_points, observed_columns, on_solid, round_hole)
+from .inputs import checked
 from .junctions import clear_of, hidden_columns
 from .leaves import flush_leaves
 from .overlap import admit, overlap
@@ -198,7 +199,8 @@ class _Data:
     rays: bool = False
     stand_in: bool = False     # the rays come from stand-in scanners (lines of sight), not a scan
     hidden: np.ndarray = None  # (nu,) columns where another wall stands against a face
-    cross: list = None         # ray test: (u, z) where rays through the wall cross a face, metres
+    cross: object = None       # (u, z) where rays through the wall crossed a face (metres): a list
+                               # of arrays during the ray test, one (k, 2) array after it
 
 
 def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_count, tol: float,
@@ -251,7 +253,7 @@ def _analyse(w: _Wall, idx: np.ndarray, xyz, normals, scan_count, tol: float,
                  front=np.stack([raster(front[0] & mid), raster(front[1] & mid)]),
                  leaf=np.stack([raster(leaf[0] & core & inz), raster(leaf[1] & core & inz)]),
                  through=np.zeros((2, nu, nz)), shadow=np.zeros((2, nu, nz)),
-                 behind=np.zeros((2, nu, nz)),
+                 behind=np.zeros((2, nu, nz)), cross=[],
                  fu=u[either], fz=z[either], scans=scans,
                  fcls=np.where(edge[0], 0, np.where(edge[1], 1, 2))[either].astype(np.int8),
                  fdev=np.where(edge[0], vl - v,  # inside the thickness: behind the nearer face
@@ -366,7 +368,7 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
                     + np.clip(((zc[ok] - w.floor_z) / c).astype(np.int64), 0, nz - 1))
             is_thr = thr[m][ok]
             dd.through[s] += np.bincount(flat[is_thr], minlength=nu * nz).reshape(nu, nz)
-            dd.cross = (dd.cross or []) + ([] if stand_in else [np.c_[uc[ok][is_thr], zc[ok][is_thr]]])
+            dd.cross += [] if stand_in else [np.c_[uc[ok][is_thr], zc[ok][is_thr]]]
             shade, wk = ~is_thr, wall_k[sel][m][ok]
             other = shade & (wk >= 0) & (wk != wi)
             if other.any():
@@ -428,7 +430,7 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     dev = dd.fdev[keep]
     proud = dev < -min(tol, 0.45 * (w.faces[0] - w.faces[1]))  # a casing's
     zlo, zhi = (z0 + p.edge_band if floor_reach else zb) + 0.05, zt - 0.05
-    cr = np.concatenate(dd.cross) if dd.cross else np.zeros((0, 2))  # where rays pass the faces
+    cr = dd.cross  # where rays passed the faces
     pu = cr[(cr[:, 1] >= zlo) & (cr[:, 1] <= zhi), 0]
     el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol, proud, dev, pu)
     er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol, proud, dev, pu)
@@ -619,41 +621,6 @@ def _judge(w: _Wall, dd: _Data, rect, mode, obs, tol: float, p: OpeningParams) -
 
 
 # ----------------------------------------------------------------------------- entry point
-def _checked(xyz, normals, scan_index, scanner_positions, view_pairs=None):
-    """Validated arrays (non-finite points dropped; the ray test needs the scanners and
-    ``scan_index`` or ``view_pairs``)."""
-    xyz = np.asarray(xyz, dtype=np.float64)
-    if xyz.ndim != 2 or xyz.shape[1] != 3:
-        raise InputError(f"opening detection: xyz must be (n, 3), not {xyz.shape}")
-    n = len(xyz)
-    normals = None if normals is None else np.asarray(normals, dtype=np.float64)
-    if normals is not None and normals.shape != (n, 3):
-        raise InputError(f"opening detection: normals must be ({n}, 3), not {normals.shape}")
-    if view_pairs is not None and scanner_positions is not None:
-        scan_index = None
-        scanner_positions = np.asarray(scanner_positions, dtype=np.float64).reshape(-1, 3)
-        view_pairs = tuple(np.asarray(a, np.int64).ravel() for a in view_pairs)
-        if len(view_pairs) != 2 or len(view_pairs[0]) != len(view_pairs[1]):
-            raise InputError("opening detection: view_pairs must be two arrays of one length")
-    elif scan_index is None or scanner_positions is None:
-        scan_index = scanner_positions = view_pairs = None
-    else:
-        view_pairs = None
-        scan_index = np.asarray(scan_index).astype(np.int64).ravel()
-        scanner_positions = np.asarray(scanner_positions, dtype=np.float64).reshape(-1, 3)
-        if len(scan_index) != n:
-            raise InputError(f"opening detection: scan_index has {len(scan_index)} entries for {n} points")
-    keep = np.all(np.isfinite(xyz), axis=1)
-    if not keep.all():
-        xyz, normals = xyz[keep], None if normals is None else normals[keep]
-        scan_index = None if scan_index is None else scan_index[keep]
-        if view_pairs is not None:
-            new = np.cumsum(keep) - 1
-            ok = keep[view_pairs[0]]
-            view_pairs = (new[view_pairs[0][ok]], view_pairs[1][ok])
-    return xyz, normals, scan_index, scanner_positions, view_pairs
-
-
 def _fit_faces(frames: list[_Wall], idx: list, xyz: np.ndarray, p: OpeningParams) -> float:
     """Set each wall's face offsets from its points; return the range noise σ (metres)."""
     spread = []
@@ -735,7 +702,7 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
     InputError
         Malformed arrays or a wall without a usable axis or thickness.
     """
-    xyz, normals, scan_index, scanners, view_pairs = _checked(xyz, normals, scan_index, scanner_positions,
+    xyz, normals, scan_index, scanners, view_pairs = checked(xyz, normals, scan_index, scanner_positions,
                                                               view_pairs)
     frames = [_frame(w, storeys) for w in walls if w.type == ShapeType.WALL]
     for w in frames:  # a side facing the storey's exterior (named, or no space) is an outer side
@@ -772,6 +739,8 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
             _ray_test(frames, data, xyz[pp], vv, scanners, tol, p, wall_of[pp], stand_in=True)
             for dd in data:
                 dd.stand_in = dd.rays
+    for dd in data:
+        dd.cross = np.concatenate(dd.cross) if dd.cross else np.zeros((0, 2))
     out: list[Shape] = []
     count = {"door": 0, "window": 0}
     hidden = hidden_columns(frames, p.cell, p.junction_depth)
