@@ -1259,7 +1259,7 @@ def test_the_gap_after_a_face_stops_where_rays_pass_or_the_hole_shows():
     alone = hole_edge(*args)
     assert alone > 2.06  # the gap added: half of 20 cm and more
     assert abs(hole_edge(*args, None, np.zeros(24), np.array([2.02, 2.05, 2.3])) - 2.05) <= 0.005
-    assert hole_edge(*args, None, np.zeros(24), np.array([2.02])) == alone  # one stray ray
+    assert abs(hole_edge(*args, None, np.zeros(24), np.array([2.02])) - alone) <= 0.001  # one stray ray
     coord, other = np.r_[face, 2.03, 2.04], np.r_[fz, 1.2, 1.7]
     inside = np.r_[np.zeros(24, bool), True, True]
     deep = hole_edge(coord, other, inside, 1.65, 2.25, 0.95, 1.95, True, 0.015, None,
@@ -1267,4 +1267,4 @@ def test_the_gap_after_a_face_stops_where_rays_pass_or_the_hole_shows():
     assert abs(deep - 2.04) <= 0.005
     shallow = hole_edge(coord, other, inside, 1.65, 2.25, 0.95, 1.95, True, 0.015, None,
                         np.r_[np.zeros(24), 0.02, 0.03])
-    assert shallow == alone
+    assert abs(shallow - alone) <= 0.001
