@@ -39,7 +39,6 @@ free 3D fit on noisy, occluded walls.
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
@@ -139,8 +138,6 @@ class Plane:
 
 _AREA_CELL = 0.1
 """Grid cell (metres) used to measure a plane's covered area."""
-_SPACING_K = 4
-"""The neighbour whose distance measures a sparse support's spacing (:func:`_ransac_tile`)."""
 
 
 def _fit(kind: str, pts: np.ndarray):
@@ -270,10 +267,11 @@ def _filled(kind, normal, pts, min_fill: float, spacing=None) -> bool:
     Measured on the ``_AREA_CELL`` grid, or where the scan is sampled more sparsely than
     that around the support (a wall seen from far, or only through a door, on a sparse
     scan: 20 points a square metre can never fill 15 % of 10 cm cells) on a grid of twice
-    the scan's spacing there, ``spacing(pts)``: about one point a cell on a surface sampled
-    evenly (:func:`_ransac_tile`). Clutter that lines up is a few objects, each sampled as
-    densely as the scan, and the sparse noise tail of a wall lies beside the wall's dense
-    points: their spacing stays small and their fill low."""
+    the median distance from a support point to its nearest other point of the tile
+    (``spacing(pts)``), about one point a cell on a surface sampled evenly. Clutter that
+    lines up is a few objects, each sampled as densely as the scan, and the sparse noise
+    tail of a wall lies beside the wall's dense points: their spacing stays small and their
+    fill low."""
     coords = _plane_coords(kind, normal, pts)
     if _fill_at(coords, _AREA_CELL) >= min_fill:
         return True
@@ -289,26 +287,12 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng, band=None):
     pool = np.arange(len(pts))
     cos_agree = np.cos(params.normal_agreement)
     rejected = 0
+    tree = []
 
-    def spacing(normal, offset):
-        """The scan's spacing about a support: the median distance from its points to their
-        4th nearest points of the tile within ``2 × max_distance_threshold`` of the plane,
-        halved (about the nearest point's distance on an even sample). The 4th, not the
-        nearest: a mobile scanner's lines sample a sparse face in clumps of two or three
-        points (office_mw mobile: a partition's far side, 84 points on 11 m², 8.6 cm
-        from each other, 13 cm to the 4th: it failed the fill at 17 cm cells and its room
-        took the wall's thickness). Within the slab: a noise tail's nearest points are
-        its dense wall's, while a wall's other face (or the shelf in front of it) is a
-        different surface."""
-        slab = 2.0 * params.max_distance_threshold
-
-        def of(sup):
-            near = pts[np.abs(pts @ normal - offset) <= slab]
-            if len(near) < _SPACING_K + 1:
-                return 0.0
-            d = kdtree(near).query(sup, k=_SPACING_K + 1)[0][:, _SPACING_K]
-            return float(np.median(d)) / math.sqrt(_SPACING_K)
-        return of
+    def spacing(sup):  # median distance to the nearest other point of the tile
+        if not tree:
+            tree.append(kdtree(pts))
+        return float(np.median(tree[0].query(sup, k=2)[0][:, 1]))
 
     while len(pool) >= params.min_points and len(out) < params.max_planes_per_tile:
         P, N = pts[pool], nrm[pool]
@@ -359,8 +343,7 @@ def _ransac_tile(kind, pts, nrm, params: PlaneParams, rng, band=None):
             ext = t.max() - t.min()
         else:
             ext = float(np.max(sup[:, :2].max(axis=0) - sup[:, :2].min(axis=0)))
-        if ext < params.min_extent or not _filled(kind, normal, sup, params.min_fill,
-                                                   spacing(normal, offset)):
+        if ext < params.min_extent or not _filled(kind, normal, sup, params.min_fill, spacing):
             # drop the hypothesis' inliers from the pool anyway so the search moves on
             # (they may still join a plane in the final assignment)
             pool = pool[~inl]
