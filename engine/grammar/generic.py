@@ -37,7 +37,8 @@ from ..pointcloud import PointCloud
 from ..progress import Progress
 from ..segmentation.params import PreprocessParams
 from .coverage import CellSet, cellset_from_polygons, measure_coverage
-from .params import CellParams, CoverageParams, GenericParams
+from .params import CellParams, CoverageParams, GenericParams, ManhattanParams, params_from_data
+from .place import Peak, histogram_peaks, paired_faces
 from .rjmcmc import SearchResult, search_spaces
 from .rules import derive_topology
 
@@ -74,6 +75,51 @@ def wall_lines(planes, storey: int, params: CellParams = CellParams()) -> np.nda
         else:
             kept.append((nx, ny, rho))
     return np.array(kept, dtype=np.float64).reshape(-1, 3)
+
+
+def second_faces(lines: np.ndarray, xyz: np.ndarray, normals: np.ndarray, oriented: bool,
+                 params: CellParams = CellParams(), grammar: Optional[ManhattanParams] = None) -> np.ndarray:
+    """``lines`` (k, 3) with the second faces of their walls added (docs/method.md §3.1).
+
+    A wall seen strongly from one room and sparsely from the other (a side room the scan
+    only passed through) has one plane: the lines give the room no face of its own on that
+    side, its cell touches the other room's, and a space is never added next to another
+    (the rjMCMC's moves join them), so the room was lost (hexagon_hall mobile at 100k
+    points, seeds 9 and 11: a side room with 0.78 of its ceiling seen). Along each wall
+    direction the storey's points facing it are histogrammed as the Manhattan grammar does
+    along x and y, and a weaker surface behind a line is kept on the grammar's terms
+    (:func:`.place.paired_faces`: at most a wall's thickness behind it, seen from the other
+    side, along the same stretch, no line between). ``xyz`` (n, 3), ``normals`` (n, 3) the
+    storey's working points; ``oriented``: the normals face their scanners."""
+    if not params.second_faces or not len(lines) or len(xyz) < 10:
+        return lines
+    mp = params_from_data(xyz, grammar)
+    cos_t = math.cos(mp.normal_angle)
+    out, done = [lines], np.zeros(len(lines), bool)
+    for i in range(len(lines)):
+        if done[i]:
+            continue
+        n = lines[i, :2]
+        group = np.abs(lines[:, :2] @ n) >= math.cos(params.line_merge_angle)
+        done |= group
+        sign = np.where(lines[group, :2] @ n >= 0, 1.0, -1.0)
+        facing = np.abs(normals[:, :2] @ n) >= cos_t
+        if int(facing.sum()) < 10:
+            continue
+        pts = xyz[facing]
+        t = pts[:, :2] @ n
+        uv = np.column_stack([pts[:, :2] @ np.array([-n[1], n[0]]), pts[:, 2]])
+        strong = sorted({round(float(r), 4) for r in lines[group, 2] * sign})
+        peaks = [Peak(r, mp.min_wall_area) for r in strong]
+        weak = histogram_peaks(t, uv, mp, mp.spacing, mp.min_paired_wall_area)
+        sides = normals[facing, :2] @ n if oriented else None
+        found = paired_faces(peaks, t, uv, sides, mp, mp.spacing, weak)
+        new = [pk.position for pk in found if pk.position not in strong]
+        if new:
+            log.info("second faces behind wall lines (normal %s): %s", np.round(n, 3).tolist(),
+                     np.round(new, 3).tolist())
+            out.append(np.array([(n[0], n[1], r) for r in new], dtype=np.float64))
+    return np.vstack(out)
 
 
 def arrange_cells(lines: np.ndarray, extent, params: CellParams = CellParams()) -> list:
@@ -320,12 +366,16 @@ def _params_dict(params: GenericParams, prep_params: Optional[PreprocessParams])
 
 
 # --------------------------------------------------------------------------- pipeline
-def _storey_points(work: PointCloud, storeys: list, si: int, delta: float):
-    """Working points of storey ``si`` (from just below its floor to just below the next
-    floor, so rooms of several ceiling heights belong to it) and |n_z| of their normals."""
-    st = storeys[si]
+def _storey_mask(work: PointCloud, storeys: list, si: int, delta: float) -> np.ndarray:
+    """Which working points belong to storey ``si``: from just below its floor to just below
+    the next floor, so rooms of several ceiling heights belong to it."""
     top_z = storeys[si + 1].floor_z - delta if si + 1 < len(storeys) else np.inf
-    inz = (work.xyz[:, 2] >= st.floor_z - delta) & (work.xyz[:, 2] <= top_z)
+    return (work.xyz[:, 2] >= storeys[si].floor_z - delta) & (work.xyz[:, 2] <= top_z)
+
+
+def _storey_points(work: PointCloud, storeys: list, si: int, delta: float):
+    """Working points of storey ``si`` (:func:`_storey_mask`) and |n_z| of their normals."""
+    inz = _storey_mask(work, storeys, si, delta)
     return work.xyz[inz], np.abs(work.normals[inz, 2].astype(np.float64))
 
 
@@ -347,6 +397,13 @@ def storey_cells(prep: Prepared, params: GenericParams = GenericParams()) -> lis
         margin = params.cells.extent_margin
         lo, hi = xyz[:, :2].min(axis=0) - margin, xyz[:, :2].max(axis=0) + margin
         lines = wall_lines(prep.planes, si, params.cells)
+        if params.cells.second_faces:
+            w = prep.working
+            inz = _storey_mask(w, prep.storeys, si, delta)
+            sp = w.scanner_positions  # the preprocessing turned the normals toward their scanners
+            oriented = (sp is not None and bool(np.isfinite(sp).all())
+                        and (len(sp) == 1 or w.scan_index is not None))
+            lines = second_faces(lines, w.xyz[inz], w.normals[inz].astype(np.float64), oriented, params.cells)
         polys = arrange_cells(lines, shapely.box(lo[0], lo[1], hi[0], hi[1]), params.cells)
         cells = cellset_from_polygons(polys, (st.floor_z, z_hi), params.cells.min_face_length)
         out.append(StoreyCells(st, cells, index=si, lines=lines))

@@ -43,6 +43,10 @@ class CellParams:
     wedges and strips between lines crossing at a few degrees are no room and no wall."""
     min_face_length: Metres = 0.02
     """Shared edges shorter than this do not make cells adjacent, metres."""
+    second_faces: Flag = True
+    """A wall line's second face seen too little to be a plane still cuts the cells when it
+    is the other side of that wall (the Manhattan grammar's paired faces,
+    :func:`.place.paired_faces`, along each wall direction; :func:`.generic.second_faces`)."""
 
 
 @dataclass(frozen=True)
