@@ -84,7 +84,8 @@ _SORT_PLANES = 24
 once and each plane's slab taken by bisection; fewer: each slab is a scan of the points."""
 
 def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyFrame,
-                     params: ManhattanParams, spacing: float, ceiling_cells=None, sorted_t=None) -> bool:
+                     params: ManhattanParams, spacing: float, ceiling_cells=None, sorted_t=None,
+                     between=(-np.inf, np.inf)) -> bool:
     """Is the vertical surface at ``position`` a wall, i.e. does it reach a ceiling?
 
     ``pts`` : (n, 3) points of the storey except those facing the other horizontal axis
@@ -95,14 +96,14 @@ def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyF
     within ``wall_top_band`` below one of the storey's ceiling levels, under that ceiling
     (``ceiling_cells``: per ceiling level a membership test of its occupied ``level_cell``
     cells, or None). Departure from rule 1 (docs/method.md §2), which takes every peak:
-    furniture faces would cut rooms into slices whose common faces look closed.
-    """
+    furniture faces would cut rooms into slices whose common faces look closed. ``between``:
+    the slab's bounds, half-way to the neighbouring peaks (not a partition's points 8 cm off)."""
     w = max(1.5 * params.bin_size, params.shape_buffer / 2)
+    lo, hi = max(position - w, between[0]), min(position + w, between[1])
     if sorted_t is not None:  # pts sorted along axis: take the slab by bisection
-        i0, i1 = np.searchsorted(sorted_t, [position - w, position + w])
-        q = pts[i0:i1]
+        q = pts[slice(*np.searchsorted(sorted_t, [lo, hi]))]
     else:
-        q = pts[np.abs(pts[:, axis] - position) <= w]
+        q = pts[(pts[:, axis] >= lo) & (pts[:, axis] <= hi)]
     if len(q) == 0:
         return False
     o = 1 - axis
@@ -116,9 +117,8 @@ def _reaches_ceiling(pts: np.ndarray, axis: int, position: float, frame: StoreyF
             k = np.floor(q[band][:, :2] / params.level_cell).astype(np.int64)
             hit = np.zeros(int(band.sum()), dtype=bool)
             r = max(1, int(np.ceil(params.wall_top_reach * spacing / params.level_cell)))
-            for du in range(-r, r + 1):
-                for dv in range(-r, r + 1):
-                    hit |= cells(k + np.array([du, dv]))
+            for du, dv in np.ndindex(2 * r + 1, 2 * r + 1):
+                hit |= cells(k + np.array([du - r, dv - r]))
             band[np.flatnonzero(band)[~hit]] = False
         if np.unique(np.floor(q[band, o] / spacing)).size * spacing >= params.min_wall_top_length:
             return True
@@ -261,10 +261,11 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             dist = np.minimum(np.abs(p[:, o] - other[j - 1]), np.abs(p[:, o] - other[np.minimum(j, len(other) - 1)]))
             off = dist > d
         cand = p[off & ~along[o] & top_band]
-        order = np.argsort(cand[:, a])  # slices of it are counted: any order of ties
-        cand = cand[order]
-        peaks = [pk.position for pk in raw[a]
-                 if _reaches_ceiling(cand, a, pk.position, frame, params, spacing, ceiling_cells, cand[:, a])]
+        cand = cand[np.argsort(cand[:, a])]  # slices of it are counted: any order of ties
+        pos = [pk.position for pk in raw[a]]  # a surface's points count for its nearest peak only
+        mid = [-np.inf] + [(u + v) / 2 for u, v in zip(pos[:-1], pos[1:])] + [np.inf]
+        peaks = [x for i, x in enumerate(pos) if _reaches_ceiling(cand, a, x, frame, params, spacing,
+                                                                  ceiling_cells, cand[:, a], mid[i:i + 2])]
         # where no wall surface bounds the seen ceiling (a space seen through an opening,
         # a wall too far to get normals), the ceiling's seen extent bounds the grid
         # (first the top ceiling's extent, then that of every horizontal surface in the
