@@ -85,7 +85,7 @@ def second_faces(lines: np.ndarray, xyz: np.ndarray, normals: np.ndarray, orient
     only passed through) has one plane: the lines give the room no face of its own on that
     side, its cell touches the other room's, and a space is never added next to another
     (the rjMCMC's moves join them), so the room was lost (hexagon_hall mobile at 100k
-    points, seeds 9 and 11: a side room with 0.78 of its ceiling seen). Along each wall
+    points, seeds 8 and 9: a side room with most of its ceiling seen). Along each wall
     direction the storey's points facing it are histogrammed as the Manhattan grammar does
     along x and y, and a weaker surface behind a line is kept on the grammar's terms
     (:func:`.place.paired_faces`: at most a wall's thickness behind it, seen from the other
