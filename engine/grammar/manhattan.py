@@ -67,7 +67,7 @@ from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
 from .passages import _SIDES, doorway_tops, enclosed_pockets, furniture_strips, room_slices, wide_passages
 from .place import (StoreyFrame, detect_levels, given_frame, histogram_peaks, paired_faces, storey_chunks,
-                    storey_frame)
+                    storey_frame, with_partner)
 from .extent import FAR_POINTS, cell_lookup, closing_wall, scan_lines, seen_extent
 from .roof import meets_roof, roof_planes, slope_spaces
 from .rules import classify, derive_topology, reject_implausible_spaces
@@ -237,14 +237,14 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
             low[a, area] = histogram_peaks(p[sel, a], uv, params, spacing, area)
         return low[a, area]
 
-    raw = []
+    raw, partners = [], ({}, {})  # second face -> the face it is the other side of, per axis
     for a in (0, 1):
         found = peaks_of(a, params.min_wall_area)
         sel = along[a]
         sa = (normals[inz, a] if not inz.all() else normals[:, a])[sel] if oriented else None
-        found = paired_faces(found, p[sel, a], np.column_stack([p[sel, 1 - a], p[sel, 2]]), sa,
-                             params, spacing, weak=peaks_of(a, params.min_paired_wall_area))
-        raw.append(found)
+        raw.append(paired_faces(found, p[sel, a], np.column_stack([p[sel, 1 - a], p[sel, 2]]), sa,
+                                params, spacing, weak=peaks_of(a, params.min_paired_wall_area),
+                                partners=partners[a]))
     top_band = np.zeros(len(p), dtype=bool)  # the only points _reaches_ceiling reads
     for lo, hi in _top_bands(frame, params):
         top_band |= (p[:, 2] >= lo) & (p[:, 2] <= hi)
@@ -264,8 +264,9 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
         cand = cand[np.argsort(cand[:, a])]  # slices of it are counted: any order of ties
         pos = [pk.position for pk in raw[a]]  # a surface's points count for its nearest peak only
         mid = [-np.inf] + [(u + v) / 2 for u, v in zip(pos[:-1], pos[1:])] + [np.inf]
-        peaks = [x for i, x in enumerate(pos) if _reaches_ceiling(cand, a, x, frame, params, spacing,
-                                                                  ceiling_cells, cand[:, a], mid[i:i + 2])]
+        up = {x: _reaches_ceiling(cand, a, x, frame, params, spacing, ceiling_cells, cand[:, a], mid[i:i + 2])
+              for i, x in enumerate(pos)}
+        peaks = [x for x in pos if up[x] or with_partner(x, partners[a], up)]
         # where no wall surface bounds the seen ceiling (a space seen through an opening,
         # a wall too far to get normals), the ceiling's seen extent bounds the grid
         # (first the top ceiling's extent, then that of every horizontal surface in the
@@ -408,8 +409,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
                 lo, hi = (X[i], Y[j], Z[k]), (X[i + 1], Y[j + 1], Z[k + 1])
                 shapes[(i, j, k)] = Shape(
                     id=sid, type=typ, geometry=box_of(lo, hi), storey=storey, grid=(i, j, k),
-                    terminal=typ != ShapeType.INTERIOR, support=support,
-                    attributes={"thin_axis": thin_axis},
+                    terminal=typ != ShapeType.INTERIOR, support=support, attributes={"thin_axis": thin_axis},
                     log=(f"place: cuboid ({i},{j},{k}) from histogram intervals "
                          f"x[{X[i]:.3f},{X[i + 1]:.3f}] y[{Y[j]:.3f},{Y[j + 1]:.3f}] z[{Z[k]:.3f},{Z[k + 1]:.3f}]",
                          line))

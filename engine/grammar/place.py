@@ -23,7 +23,7 @@ import numpy as np
 from ..geometry.boxes import column_min
 from .params import ManhattanParams
 
-__all__ = ["Peak", "Level", "StoreyFrame", "histogram_peaks", "paired_faces", "detect_levels",
+__all__ = ["Peak", "Level", "StoreyFrame", "histogram_peaks", "paired_faces", "with_partner", "detect_levels",
            "storey_chunks", "storey_frame"]
 
 log = logging.getLogger(__name__)
@@ -186,7 +186,8 @@ def _back_to_back(t: np.ndarray, along: np.ndarray, z: np.ndarray, a: float, b: 
 
 
 def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: Optional[np.ndarray],
-                 params: ManhattanParams, spacing: float, weak: list | None = None) -> list:
+                 params: ManhattanParams, spacing: float, weak: list | None = None,
+                 partners: Optional[dict] = None) -> list:
     """``strong`` (histogram peaks of one axis) with the second faces of their walls.
 
     A partition's second face is often seen over little of its area (furniture in front of
@@ -210,7 +211,8 @@ def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: Optional[np.
     and z, ``sign`` (n,) their oriented normals' component along the axis (normals facing the
     scanner), or None without scanner positions (:func:`_back_to_back` then tells the sides);
     ``weak``: the peaks of the same points at ``min_paired_wall_area`` when the
-    caller has them already."""
+    caller has them already. ``partners``: when given, filled with each added face's position
+    -> the position of the strong face it is the other side of."""
     if not strong or params.min_paired_wall_area >= params.min_wall_area:
         return strong
     bs = params.bin_size
@@ -249,10 +251,22 @@ def paired_faces(strong: list, t: np.ndarray, uv: np.ndarray, sign: Optional[np.
                 apart = fp * gap < 0 and fw * gap > 0
             if apart and len(span & strong_span) >= 0.5 * len(span):
                 added.append(w)
+                if partners is not None:
+                    partners[w.position] = pk.position
                 log.debug("second face at %.3f (%.2f m²) behind the wall face at %.3f", w.position, w.area,
                           pk.position)
                 break
     return sorted(strong + added, key=lambda pk: pk.position)
+
+
+def with_partner(x: float, partners: dict, up: dict) -> bool:
+    """A wall's second face seen too little near the ceiling (a sparse scan sees a partition's
+    far side obliquely) is a wall when the face it is the other side of reaches the ceiling
+    and no other second face of that one stands nearer it: a cabinet against that side has its
+    front further off."""
+    pk = partners.get(x)
+    return pk is not None and up.get(pk, False) and not any(
+        q == pk and 0 < (y - pk) / (x - pk) < 1 for y, q in partners.items())
 
 
 def detect_levels(xyz_h: np.ndarray, params: ManhattanParams, spacing: float) -> list[Level]:

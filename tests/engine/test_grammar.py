@@ -694,8 +694,10 @@ def test_a_walls_second_face_seen_little_still_makes_a_cut():
     t, uv, sign = np.concatenate(ts), np.vstack(uvs), np.concatenate(signs)
     strong = histogram_peaks(t, uv, params, 0.02, params.min_wall_area)
     assert [round(p.position, 1) for p in strong] == [0.0, 2.0]
-    kept = [round(p.position, 2) for p in paired_faces(strong, t, uv, sign, params, 0.02)]
+    partners = {}
+    kept = [round(p.position, 2) for p in paired_faces(strong, t, uv, sign, params, 0.02, partners=partners)]
     assert kept == [0.0, 0.15, 2.0]
+    assert [(round(w, 2), round(s, 2)) for w, s in partners.items()] == [(0.15, 0.0)]
     # normals of no clear orientation (unoriented): nothing is paired
     mixed = np.where(rng.random(len(t)) < 0.5, 1.0, -1.0)
     assert [round(p.position, 1) for p in paired_faces(strong, t, uv, mixed, params, 0.02)] == [0.0, 2.0]
@@ -967,6 +969,40 @@ def test_a_surface_reaches_the_ceiling_by_its_own_points_not_a_neighbouring_wall
         between = (mid, np.inf) if pos == 5.1 else (-np.inf, mid)
         assert _reaches_ceiling(pts, 0, pos, frame, params, 0.05, None, pts[:, 0], between) == reaches
     assert _reaches_ceiling(pts, 0, 5.02, frame, params, 0.05, None, pts[:, 0])  # the slab alone
+
+
+def test_a_second_face_is_a_wall_when_the_face_it_pairs_with_reaches_the_ceiling():
+    """with_partner: a paired second face too little seen under the ceiling is a wall when
+    its partner reaches the ceiling and no other second face of that partner stands nearer
+    it (a cabinet against the wall's far side has its front further off)."""
+    from engine.grammar.place import with_partner
+
+    up = {4.6: True, 4.39: False, 9.6: False, 9.4: False}
+    assert with_partner(4.39, {4.39: 4.6}, up)
+    assert not with_partner(4.6, {4.39: 4.6}, up)  # not a second face
+    assert not with_partner(9.4, {9.4: 9.6}, up)  # its partner is no wall either
+    # the true face at 4.39 and a cabinet's front at 4.1 behind the same partner
+    both = {4.39: 4.6, 4.1: 4.6}
+    assert with_partner(4.39, both, up) and not with_partner(4.1, both, up)
+    # second faces of the same partner on its two sides do not shadow each other
+    assert with_partner(4.8, {4.39: 4.6, 4.8: 4.6}, up) and with_partner(4.39, {4.39: 4.6, 4.8: 4.6}, up)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [10, 13])
+def test_a_partition_s_far_face_seen_obliquely_keeps_its_rooms_apart(seed):
+    """two_storey_office mobile at 100k points (50k a floor), layouts no rule was developed
+    on: the far face of a ground-floor partition was paired with its near face but had too
+    few points under the ceiling, so it made no cut and its two rooms merged (13 rooms of 14).
+    14 of 14 since a second face is a wall when its partner reaches the ceiling."""
+    from engine.evaluation.rooms import room_scores, scanned_spaces
+    from engine.reconstruct import reconstruct
+
+    sc = preset("two_storey_office", seed=seed, noise="mobile", target_points=100_000)
+    model = reconstruct(sc.cloud, "auto", rng=seed)
+    r = room_scores(model, sc.truth, seen=scanned_spaces(sc.truth, sc.cloud.xyz))
+    assert r["true"] == r["model"] == r["matched"] == 14, r
+    assert r["mean_iou"] >= 0.95, r  # 0.984 on both (0.94 before)
 
 
 @pytest.mark.slow
