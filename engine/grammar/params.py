@@ -47,6 +47,10 @@ class CellParams:
     """A wall line's second face seen too little to be a plane still cuts the cells when it
     is the other side of that wall (the Manhattan grammar's paired faces,
     :func:`.place.paired_faces`, along each wall direction; :func:`.generic.second_faces`)."""
+    clutter_fronts: Flag = True
+    """A line whose surface faces the same way as a longer one within a wall's thickness
+    behind it, which runs on past both its ends, is furniture before a wall (a shelf's
+    front): it makes no cut (:func:`.generic.clutter_fronts`; oriented normals only)."""
 
 
 @dataclass(frozen=True)
