@@ -335,7 +335,8 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
     them reaches 0.8, two_storey_office mobile), so they came out exterior — the room ended at
     the cabinet's front, with a 0.7 m "wall" holding a false door. A run across them, from an
     interior cuboid wider than a wall both ways (a room part, not a doorway's band; the face
-    between them unseen, IPoF < τ on both) over exterior cuboids on the floor (and thin
+    between them may be seen: the furniture's front, on another wall's plane) over exterior
+    cuboids on the floor (and thin
     interior ones the classification made rooms of, the first one too: a wall line elsewhere
     on the storey cuts a strip off the room; at least one exterior) to a wall cuboid, each at most
     ``max_wall_thickness`` across and longer than that along the wall (a strip, not a piece of
@@ -389,9 +390,6 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
             if not run or not inside(q) or types[q[0], q[1], 0] != ShapeType.WALL or \
                     any(across(c)[1 if di else 0] <= t_max for c in run):
                 continue  # ... and strips along the wall, not pieces of a wall line
-            if shapes[(i, j, 0)].support.get(f"ipof_f{f}", 0.0) >= tau or \
-                    shapes[run[0] + (0,)].support.get(f"ipof_f{back}", 0.0) >= tau:
-                continue
             lo = np.min([shapes[c + (0,)].geometry.bounds[0, :2] for c in run], axis=0)
             hi = np.max([shapes[c + (0,)].geometry.bounds[1, :2] for c in run], axis=0)
             if float((hi - lo)[0 if di else 1]) > params.pocket_width:
