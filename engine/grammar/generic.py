@@ -77,6 +77,22 @@ def wall_lines(planes, storey: int, params: CellParams = CellParams()) -> np.nda
     return np.array(kept, dtype=np.float64).reshape(-1, 3)
 
 
+def _directions(lines: np.ndarray, normals: np.ndarray, params: CellParams, mp: ManhattanParams):
+    """Per wall direction of ``lines`` (k, 3): (which lines run along it, (k,) bool; its unit
+    normal n, (2,); which points face it, (n,) bool), for directions at least 10 points face."""
+    cos_t = math.cos(mp.normal_angle)
+    done = np.zeros(len(lines), bool)
+    for i in range(len(lines)):
+        if done[i]:
+            continue
+        n = lines[i, :2]
+        group = np.abs(lines[:, :2] @ n) >= math.cos(params.line_merge_angle)
+        done |= group
+        facing = np.abs(normals[:, :2] @ n) >= cos_t
+        if int(facing.sum()) >= 10:
+            yield group, n, facing
+
+
 def second_faces(lines: np.ndarray, xyz: np.ndarray, normals: np.ndarray, oriented: bool,
                  params: CellParams = CellParams(), grammar: Optional[ManhattanParams] = None) -> np.ndarray:
     """``lines`` (k, 3) with the second faces of their walls added (docs/method.md §3.1).
@@ -94,18 +110,9 @@ def second_faces(lines: np.ndarray, xyz: np.ndarray, normals: np.ndarray, orient
     if not params.second_faces or not len(lines) or len(xyz) < 10:
         return lines
     mp = params_from_data(xyz, grammar)
-    cos_t = math.cos(mp.normal_angle)
-    out, done = [lines], np.zeros(len(lines), bool)
-    for i in range(len(lines)):
-        if done[i]:
-            continue
-        n = lines[i, :2]
-        group = np.abs(lines[:, :2] @ n) >= math.cos(params.line_merge_angle)
-        done |= group
+    out = [lines]
+    for group, n, facing in _directions(lines, normals, params, mp):
         sign = np.where(lines[group, :2] @ n >= 0, 1.0, -1.0)
-        facing = np.abs(normals[:, :2] @ n) >= cos_t
-        if int(facing.sum()) < 10:
-            continue
         pts = xyz[facing]
         t = pts[:, :2] @ n
         uv = np.column_stack([pts[:, :2] @ np.array([-n[1], n[0]]), pts[:, 2]])
@@ -130,7 +137,7 @@ def clutter_fronts(lines: np.ndarray, xyz: np.ndarray, normals: np.ndarray, orie
     A shelf against a wall has a front plane like a wall's; its line cut the room along the
     whole wall, and where the strip behind it was seen too little (a side room the scan only
     looked into) the strip was left out of the room and its wall got a false door
-    (hexagon_hall mobile at 100k points, held-out seeds 8, 9, 12, 13: a side room 0.42 m
+    (hexagon_hall mobile at 100k points, held-out seeds 12 and 13: a side room 0.42 m
     short). A wall's two faces face away from each other; a line whose points face the same
     way as those of a parallel line at most a wall's thickness behind it, which runs on past
     both its ends and is longer, is no wall but clutter before that one. Oriented normals
@@ -138,16 +145,10 @@ def clutter_fronts(lines: np.ndarray, xyz: np.ndarray, normals: np.ndarray, orie
     if not params.clutter_fronts or not oriented or len(lines) < 2 or len(xyz) < 10:
         return lines
     mp = params_from_data(xyz, grammar)
-    cos_t = math.cos(mp.normal_angle)
-    keep, done = np.ones(len(lines), bool), np.zeros(len(lines), bool)
-    for i in range(len(lines)):
-        if done[i]:
-            continue
-        n = lines[i, :2]
-        group = np.flatnonzero(np.abs(lines[:, :2] @ n) >= math.cos(params.line_merge_angle))
-        done[group] = True
-        facing = np.abs(normals[:, :2] @ n) >= cos_t
-        if len(group) < 2 or int(facing.sum()) < 10:
+    keep = np.ones(len(lines), bool)
+    for group, n, facing in _directions(lines, normals, params, mp):
+        group = np.flatnonzero(group)
+        if len(group) < 2:
             continue
         pts = xyz[facing]
         t, along = pts[:, :2] @ n, pts[:, :2] @ np.array([-n[1], n[0]])
@@ -452,8 +453,9 @@ def storey_cells(prep: Prepared, params: GenericParams = GenericParams()) -> lis
             oriented = (sp is not None and bool(np.isfinite(sp).all())
                         and (len(sp) == 1 or w.scan_index is not None))
             wx, wn = w.xyz[inz], w.normals[inz].astype(np.float64)
-            lines = clutter_fronts(lines, wx, wn, oriented, params.cells)
-            lines = second_faces(lines, wx, wn, oriented, params.cells)
+            mp = params_from_data(wx) if len(wx) >= 10 else None  # spacing and noise, once
+            lines = clutter_fronts(lines, wx, wn, oriented, params.cells, mp)
+            lines = second_faces(lines, wx, wn, oriented, params.cells, mp)
         polys = arrange_cells(lines, shapely.box(lo[0], lo[1], hi[0], hi[1]), params.cells)
         cells = cellset_from_polygons(polys, (st.floor_z, z_hi), params.cells.min_face_length)
         out.append(StoreyCells(st, cells, index=si, lines=lines))

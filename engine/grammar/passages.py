@@ -336,9 +336,9 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
     the cabinet's front, with a 0.7 m "wall" holding a false door. A run across them, from an
     interior cuboid wider than a wall both ways (a room part, not a doorway's band; the face
     between them may be seen: the furniture's front, on another wall's plane) over exterior
-    cuboids on the floor (and thin
-    interior ones the classification made rooms of, the first one too: a wall line elsewhere
-    on the storey cuts a strip off the room; at least one exterior) to a wall cuboid, each at most
+    cuboids on the floor (and thin interior ones the classification made rooms of, the first
+    one too: a wall line elsewhere on the storey cuts a strip off the room; at least one
+    exterior) to a wall cuboid, each at most
     ``max_wall_thickness`` across and longer than that along the wall (a strip, not a piece of
     a wall line: a run along a wall line from a doorway merged a corridor with a room), all
     at most ``pocket_width`` across, closed at its ends (walls, rooms, such runs or the grid's
@@ -354,7 +354,7 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
     if params.pocket_width <= 0 or params.strip_density <= 0 or len(uv) == 0:
         return
     nx, ny, nz = types.shape
-    tau, t_max = params.tau, params.max_wall_thickness
+    t_max = params.max_wall_thickness
     uv = uv[np.argsort(uv[:, 0])]  # slices of it are counted: any order of ties
 
     def density(x0, x1, y0, y1):
