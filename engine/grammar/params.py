@@ -116,6 +116,9 @@ class RjmcmcParams:
     link_length: Metres = 0.15
     """Covered cells of a space must connect through faces at least this long, metres
     (about half a wall's thickness), that are not seen walls."""
+    walls_part: Flag = True
+    """Spaces may meet across a seen wall: the moves treat a cell as adjacent to a space only
+    through faces that are no seen walls (see the module doc)."""
     beta: Factor = 0.0
     """Convergence factor β: accept when α > U, U ~ Uniform[β, 1] (0: plain MH)."""
     iterations: Count = 0

@@ -160,6 +160,9 @@ class SpaceSearch:
         seen = coverage.seen if coverage.seen is not None else np.zeros(len(cells.faces), bool)
         self.long_nbrs = [[o for o, fi in lst if cells.faces[fi].length >= params.link_length
                            and not seen[fi]] for lst in cells.neighbours()]
+        # the neighbours the moves join: through faces that are no seen wall (walls_part)
+        self.open_nbrs = [[o for o, fi in lst if not (params.walls_part and seen[fi])]
+                          for lst in cells.neighbours()]
         # a covered cell with no such face (a scrap where wall lines cross, walled off) can
         # link nothing, so it glues nothing: the connectivity test passes over it
         self.linkable = self.covered & np.array([bool(x) for x in self.long_nbrs], dtype=bool)
@@ -288,7 +291,7 @@ class SpaceSearch:
 
     def adjacent_spaces(self, c: int) -> set:
         """Ids of the spaces holding a cell that shares a face with cell ``c``."""
-        return {int(self.space_of[o]) for o in self.nbrs[c] if self.space_of[o] >= 0}
+        return {int(self.space_of[o]) for o in self.open_nbrs[c] if self.space_of[o] >= 0}
 
     def components(self, S: set) -> list[frozenset]:
         """Connected parts of a cell set (through shared faces)."""
@@ -330,7 +333,7 @@ class SpaceSearch:
         # qualifies; checked anyway for models set from outside
         S = self.spaces[sid]
         for c in S:
-            for o in self.nbrs[c]:
+            for o in self.open_nbrs[c]:
                 if self.space_of[o] >= 0 and self.space_of[o] != sid:
                     return None
         return [sid], []
@@ -452,7 +455,7 @@ class SpaceSearch:
         long = {sid for sid, v in length.items() if v >= self.params.link_length}
         return long or set(length)
 
-    def _doorway(self, c: int) -> bool:
+    def _doorway(self, c: int, spaces) -> bool:
         """Whether cell ``c`` between spaces is a gap in a wall line rather than where rooms
         meet without a wall: no thicker than a wall against the spaces, and open towards one
         of them over less than ``join_open_width`` (syn_house mobile at 100k points: the
@@ -460,7 +463,8 @@ class SpaceSearch:
         ceiling's edges spilling over it, joined the two rooms beside it)."""
         if self.cells.wall_thickness(c, self.cfaces[c], self.space_of >= 0) > self.params.max_wall_thickness:
             return False
-        return min(self._contact(c).values(), default=0.0) < self.params.join_open_width
+        contact = self._contact(c)
+        return min((contact[sid] for sid in spaces), default=0.0) < self.params.join_open_width
 
     def _open_to(self, c: int) -> set:
         """The one space a covered untyped cell ``c`` opens to when every face it shares with
@@ -496,9 +500,10 @@ class SpaceSearch:
                     continue
                 adj = self._touching(c)
                 if len(adj) > 1 and self.params.join_open and self._open_between(c):
-                    if self._doorway(c):
+                    if self._doorway(c, adj):
                         continue
-                    remove, add = self.move_add_merge(c)
+                    remove = sorted(adj)
+                    add = [frozenset({c}.union(*(self.spaces[sid] for sid in remove)))]
                     if self.space_terms(add[0]).prior_ok:
                         self.apply(remove, add)
                         added += 1
