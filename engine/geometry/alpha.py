@@ -162,7 +162,7 @@ def alpha_area(xy: np.ndarray, r_alpha: float, clip: Optional[tuple] = None) -> 
 
 
 def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap: float = 0.0,
-                   tolerance: float = 1e-9, local_factor: float = 0.0, r_max: float = 0.0):
+                   tolerance: float = 1e-9, local_factor: float = 0.0, r_max: float = 0.0, bounds=None):
     """The alpha shape of ``xy`` as one shapely (Multi)Polygon (union of its triangles).
 
     Parameters
@@ -181,6 +181,8 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
 
     local_factor, r_max : when ``r_max > r_alpha``, each point's bound is raised to
         ``local_factor`` × the local spacing, at most ``r_max`` (:func:`local_alpha`).
+    bounds : (n,) float64 circumradius bound of each point, metres, instead of the two above;
+        or None.
 
     Returns
     -------
@@ -210,7 +212,10 @@ def alpha_geometry(xy: np.ndarray, r_alpha: float, blockers: Sequence = (), snap
             moves.append((idx[m], p + t[m, None] * u))
         for idx, proj in moves:
             xy[idx] = proj
-    bound = local_alpha(xy, r_alpha, local_factor, r_max) if r_max > r_alpha else r_alpha
+    if bounds is not None:
+        bound = np.asarray(bounds, dtype=np.float64).reshape(len(xy))
+    else:
+        bound = local_alpha(xy, r_alpha, local_factor, r_max) if r_max > r_alpha else r_alpha
     simp = alpha_simplices(xy, bound)
     if len(simp) == 0:
         return shapely.GeometryCollection()

@@ -352,7 +352,8 @@ def _face_band(f: Face, zr: np.ndarray, ceiling_z: np.ndarray, band: float) -> t
 
 
 def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.ndarray,
-                     params: CoverageParams = CoverageParams(), *, should_check=None) -> CellCoverage:
+                     params: CoverageParams = CoverageParams(), *, should_check=None,
+                     xyz_level=None) -> CellCoverage:
     """Measure the per-cell and per-face coverage once (see the module doc).
 
     Parameters
@@ -369,6 +370,11 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
         ``r_alpha_max`` (the ceiling's alpha shape follows the local spacing of the ceiling
         points, :func:`local_alpha`, up to ``r_alpha_max``).
     should_check : optional callable polled between faces (cancellation).
+    xyz_level : (k, 3) float64 — more ceiling points, metres (at a ceiling level but with a
+        normal too tilted to tell, :attr:`CoverageParams.ceiling_by_level`), or None. They
+        join the ceiling's alpha shape with the bound of the nearest ceiling point: points
+        filling in a scan line would halve the spacing along it, not across it, and so
+        shrink the bounds where the scan lines are far apart.
 
     Returns
     -------
@@ -429,8 +435,17 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
     blockers = [s for fi in seen for s in cells.faces[fi].segments]
     seen_mask = np.zeros(len(cells.faces), dtype=bool)
     seen_mask[seen] = True
-    geom = alpha_geometry(thin_points(hw[upper][:, :2], thin), r_alpha, blockers=blockers, snap=shape_buffer,
-                          local_factor=alpha_spacing_factor, r_max=r_alpha_max)
+    ceil = thin_points(hw[upper][:, :2], thin)
+    bounds = None
+    if xyz_level is not None and len(xyz_level):
+        extra = thin_points(np.asarray(xyz_level, dtype=np.float64).reshape(-1, 3)[:, :2], thin)
+        bounds = np.full(len(ceil) + len(extra), float(r_alpha))
+        if len(ceil) and r_alpha_max > r_alpha:
+            bounds[:len(ceil)] = local_alpha(ceil, r_alpha, alpha_spacing_factor, r_alpha_max)
+            bounds[len(ceil):] = bounds[:len(ceil)][cKDTree(ceil).query(extra)[1]]
+        ceil = np.vstack([ceil, extra])
+    geom = alpha_geometry(ceil, r_alpha, blockers=blockers, snap=shape_buffer,
+                          local_factor=alpha_spacing_factor, r_max=r_alpha_max, bounds=bounds)
     total_h = float(geom.area)
     if geom.is_empty:
         top = np.zeros(n)

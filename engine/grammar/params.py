@@ -73,6 +73,9 @@ class CoverageParams:
     ceiling_band: Metres = 0.1
     """Ceiling points must lie within this distance of a ceiling level (``min_ceiling_area``),
     metres."""
+    ceiling_by_level: Flag = True
+    """Every point within ``ceiling_band`` of a ceiling level counts as ceiling, whatever its
+    normal (a sparse scan's scan lines leave too few neighbours across them for a normal)."""
     alpha_spacing_factor: Factor = 5.0
     """r_α of the ceiling follows the local spacing of the thinned ceiling points: this many
     spacings, at least ``r_alpha`` and at most ``r_alpha_max``."""
