@@ -24,8 +24,9 @@ Departures from the thesis (docs/method.md §2):
   bounds the seen ceiling, the ceiling's seen extent bounds the grid.
 * The ceiling (seen extent, "under a ceiling", top-face index) is the horizontal points
   within δ of its level *or* topmost in their ``level_cell`` cell and at most
-  ``wall_top_band`` below it (:func:`_ceiling_mask`): a terrestrial scan's ceiling reads
-  lower far from the scanner. Its seen extent is that of its largest
+  ``wall_top_band`` below it (:func:`.levels.ceiling_mask`): a terrestrial scan's ceiling reads
+  lower far from the scanner; with ``ceiling_by_level`` any point on the level but a wall's
+  top (:mod:`.levels`: sparse scan lines spoil normals). Its seen extent is that of its largest
   connected group of occupied cells (area, not a point percentile: the far end of a
   scan is sparse), and the grid ends there at the outermost weakly seen wall surface
   (≥ ``min_bound_wall_area``) reaching the ceiling height within ``max_wall_thickness``
@@ -63,6 +64,7 @@ from ..progress import Progress
 from ..segmentation.params import PreprocessParams
 from .ends import UpperBand, free_wall_ends, heal_split_cells
 from .geometry import box_of
+from .levels import ceiling_mask
 from .ipof import grid_face_index, local_radii
 from .params import ManhattanParams, estimate_noise, params_from_data
 from .passages import _SIDES, doorway_tops, enclosed_pockets, furniture_strips, room_slices, wide_passages
@@ -162,38 +164,6 @@ def _or_void(cells, xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, pa
     return lambda k: cells(k) | (above(k) & ~floor(k))
 
 
-def _ceiling_mask(p: np.ndarray, hor: np.ndarray, level: float, frame: StoreyFrame,
-                  params: ManhattanParams) -> np.ndarray:
-    """Which points lie on the ceiling at ``level`` (z, metres): (n,) bool.
-
-    ``p`` : (n, 3) float64 storey points, metres; ``hor`` : (n,) bool, normal along z.
-    A horizontal point is on it when it lies within the shape buffer δ of the level, or
-    when it is the top surface of its ``level_cell`` cell in the storey (nothing above
-    it within δ) and at most ``wall_top_band`` below the level. The second part follows
-    a ceiling that reads lower far from a terrestrial scanner (a range-dependent error of
-    the scans, not a step), and stops at a real step (a soffit or a lower ceiling more
-    than the band down). Departure from rule 1 (docs/method.md §2).
-    """
-    d = params.shape_buffer
-    m = hor & (np.abs(p[:, 2] - level) <= d)
-    cand = hor & (p[:, 2] <= frame.ceiling + d)
-    if not cand.any():
-        return m
-    k = np.floor(p[cand, :2] / params.level_cell).astype(np.int64)
-    k -= k.min(axis=0)
-    key = k[:, 0] * (int(k[:, 1].max()) + 1) + k[:, 1]
-    z = p[cand, 2]
-    order = np.argsort(key)  # the highest point of each cell (reduceat: ufunc.at is slow)
-    first = np.ones(len(key), dtype=bool)
-    first[1:] = key[order][1:] != key[order][:-1]
-    top = np.maximum.reduceat(z[order], np.flatnonzero(first))
-    zt = np.empty_like(z)
-    zt[order] = top[np.cumsum(first) - 1]
-    ok = (z >= zt - d) & (zt >= level - params.wall_top_band) & (zt <= level + d)
-    m[np.flatnonzero(cand)[ok]] = True
-    return m
-
-
 def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, storey: int,
                  params: ManhattanParams, spacing: float, oriented: bool = False,
                  roof: Optional[list] = None, views: Optional[Views] = None) -> list[Shape]:
@@ -225,7 +195,7 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
 
     # place: peaks of x (points facing x) and y (points facing y) → intervals
     hor = along[2]
-    on_ceiling = [_ceiling_mask(p, hor, c, frame, params) for c in frame.ceilings]
+    on_ceiling = [ceiling_mask(p, hor, c, frame, params) for c in frame.ceilings]
     ceiling_cells = [cell_lookup(p[m][:, :2], params.level_cell) for m in on_ceiling]
     ceiling_cells[-1] = _or_void(ceiling_cells[-1], xyz, normals, frame, params)
     low = {}  # (axis, least area) -> the peaks of the points facing that axis: each histogram once

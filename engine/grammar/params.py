@@ -307,6 +307,10 @@ class ManhattanParams:
     min_passage_width: Metres = 2.0
     """A thin unseen cuboid with floor under it between two interiors, at least this long, is a
     wide opening under a beam or lintel that joins them (narrower: a door); 0 turns it off."""
+    ceiling_by_level: Flag = True
+    """A point within δ of a ceiling level is on that ceiling whatever its normal, unless it
+    stands over a wall (:func:`.levels.over_walls`): a sparse scan's scan lines leave a
+    point's neighbourhood one line, and its normal tilts anywhere about it."""
     ceiling_reach: Factor = 3.0
     """In the sparse ceiling index (``ipof_top_sparse``) a ceiling point covers a disc of its
     local spacing, up to this many σ: a cuboid on the floor with its floor seen is interior

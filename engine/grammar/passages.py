@@ -337,8 +337,8 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
     interior cuboid wider than a wall both ways (a room part, not a doorway's band; the face
     between them may be seen: the furniture's front, on another wall's plane) over exterior
     cuboids on the floor (and thin interior ones the classification made rooms of, the first
-    one too: a wall line elsewhere on the storey cuts a strip off the room; at least one
-    exterior) to a wall cuboid, each at most
+    one too: a wall line elsewhere on the storey cuts a strip off the room; all of them too:
+    a sparse ceiling counted by its height, :mod:`.levels`) to a wall cuboid, each at most
     ``max_wall_thickness`` across and longer than that along the wall (a strip, not a piece of
     a wall line: a run along a wall line from a doorway merged a corridor with a room), all
     at most ``pocket_width`` across, closed at its ends (walls, rooms, such runs or the grid's
@@ -385,7 +385,8 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
             while (free(q) or (inside(q) and types[q[0], q[1], 0] == ShapeType.INTERIOR)) \
                     and edges[q[0 if di else 1] + 1] - edges[q[0 if di else 1]] <= t_max:
                 run.append(q)  # ... or a thin part the classification made a room of (first too:
-                # a wall line elsewhere on the storey cuts one off the room; a run needs a free part)
+                # a wall line elsewhere on the storey cuts one off the room; all of them: a sparse
+                # ceiling seen by its height, :mod:`.levels`)
                 q = (q[0] + di, q[1] + dj)
             if not run or not inside(q) or types[q[0], q[1], 0] != ShapeType.WALL or \
                     any(across(c)[1 if di else 0] <= t_max for c in run):
@@ -423,8 +424,6 @@ def furniture_strips(shapes: dict, types: np.ndarray, uv: np.ndarray, X: np.ndar
                 cells = {c for *_, run, _ in runs for c in run}
                 changed = True
     for (i, j), f, back, run, ref in runs:
-        if not any(free(c) for c in run):
-            continue
         for n, c in enumerate(run):
             s = shapes[c + (0,)]
             types[c[0], c[1], 0] = ShapeType.INTERIOR
