@@ -37,6 +37,7 @@ from ..pointcloud import PointCloud
 from ..progress import Progress
 from ..segmentation.params import PreprocessParams
 from .coverage import CellSet, cellset_from_polygons, measure_coverage
+from .levels import over_walls
 from .params import CellParams, CoverageParams, GenericParams, ManhattanParams, params_from_data
 from .place import Peak, _face_side_and_span, histogram_peaks, paired_faces
 from .rjmcmc import SearchResult, search_spaces
@@ -464,33 +465,30 @@ def storey_cells(prep: Prepared, params: GenericParams = GenericParams()) -> lis
 
 def _near_ceiling_levels(z: np.ndarray, planes, storey: int, z0: float, z1: float,
                          params: CoverageParams) -> tuple[np.ndarray, np.ndarray]:
-    """Two (n,) bool masks. The first is False for upper-half points that are far from every
-    large horizontal plane (door heads, shelf tops seen from below are not ceiling);
-    lower-half points and all points when no large plane is known stay True. The second
-    marks the upper-half points near such a plane (none when no plane is known)."""
+    """(n,) bool, False for upper-half points that are far from every large horizontal plane
+    (door heads, shelf tops seen from below are not ceiling) — lower-half points and all
+    points when no large plane is known stay True — and those planes' levels (z, metres)."""
     mid = (z0 + z1) / 2
     levels = [float(p.offset / p.normal[2]) for p in planes
               if p.kind == "horizontal" and p.storey in (storey, -1) and p.area >= params.min_ceiling_area
               and abs(p.normal[2]) > 0.5 and p.offset / p.normal[2] > mid]
     if not levels:
-        return np.ones(len(z), bool), np.zeros(len(z), bool)
+        return np.ones(len(z), bool), np.zeros(0)
     lv = np.asarray(levels)
-    near = (np.min(np.abs(z[:, None] - lv[None, :]), axis=1) <= params.ceiling_band) & (z > mid)
-    return near | (z <= mid), near
+    near = np.min(np.abs(z[:, None] - lv[None, :]), axis=1) <= params.ceiling_band
+    return near | (z <= mid), lv
 
 
-def _off_lines(xyz: np.ndarray, mask: np.ndarray, lines: np.ndarray, delta: float) -> np.ndarray:
-    """``mask`` without the points within ``delta`` of a wall line (``(nx, ny, ρ)`` rows): a
-    wall's top under the ceiling is no ceiling, and would cover the cell between its faces
-    (the caller passes 2 δ: a mobile scan's faces spread a few centimetres past δ)."""
-    idx = np.flatnonzero(mask)
-    keep = np.ones(len(idx), bool)
-    for k in range(0, len(idx), 65_536):
-        xy = xyz[idx[k:k + 65_536], :2]
-        for nx, ny, rho in lines:
-            keep[k:k + 65_536] &= np.abs(xy[:, 0] * nx + xy[:, 1] * ny - rho) > delta
-    out = np.zeros(len(mask), bool)
-    out[idx[keep]] = True
+def _level_points(xyz: np.ndarray, nz: np.ndarray, levels, ceiling: np.ndarray,
+                  params: CoverageParams) -> np.ndarray:
+    """(n,) bool: the points within ``ceiling_band`` of a ceiling level that are not in
+    ``ceiling`` (their normal too tilted to tell) and stand over no wall
+    (:func:`.levels.over_walls`: a wall's top would cover the cell between its faces)."""
+    out = np.zeros(len(xyz), bool)
+    upright = nz < math.cos(params.coverage_angle)
+    for lv in levels:
+        at = ~ceiling & ~out & (np.abs(xyz[:, 2] - lv) <= params.ceiling_band)
+        out |= at & ~over_walls(xyz, at, float(lv), upright, 2.0 * params.shape_buffer)
     return out
 
 
@@ -535,11 +533,9 @@ def generic_model(prep: Prepared, params: GenericParams = GenericParams(), *, rn
         z_hi = float(sc.cells.z_range[:, 1].max()) if len(sc.cells) else sc.storey.ceiling_z
         hmask = nz >= math.cos(cov_p.coverage_angle)
         wmask = nz <= math.sin(cov_p.coverage_angle)
-        near, at_level = _near_ceiling_levels(xyz[:, 2], prep.planes, sc.index, sc.storey.floor_z, z_hi,
-                                              cov_p)
+        near, levels = _near_ceiling_levels(xyz[:, 2], prep.planes, sc.index, sc.storey.floor_z, z_hi, cov_p)
         hmask &= near
-        level = _off_lines(xyz, at_level & ~hmask, sc.lines, 2.0 * cov_p.shape_buffer) \
-            if cov_p.ceiling_by_level else None
+        level = _level_points(xyz, nz, levels, hmask, cov_p) if cov_p.ceiling_by_level else None
         cov = measure_coverage(sc.cells, xyz[wmask], xyz[hmask], cov_p, should_check=p.check,
                                xyz_level=None if level is None else xyz[level])
         t_cov += time.perf_counter() - t1

@@ -262,14 +262,14 @@ def test_a_shelf_s_front_before_a_wall_makes_no_line():
 def test_ceiling_points_told_by_their_level_where_normals_fail():
     """A sparse scan's ceiling seen as scan lines 0.4 m apart, points 8 cm apart along each:
     a neighbourhood holds one line, so many points get a tilted normal and are no ceiling by
-    their normal. Those within ``ceiling_band`` of a ceiling level count (not near a wall
-    line: a wall's top would cover the cell between its faces), with the alpha bound of
-    the nearest ceiling point. Taken as ordinary ceiling points, filling in the lines halves
-    the spacing along them and shrinks the bounds below the gap between the lines."""
+    their normal. Those within ``ceiling_band`` of a ceiling level count (not a wall's top:
+    it would cover the cell between the wall's faces), with the alpha bound of the nearest
+    ceiling point. Taken as ordinary ceiling points, filling in the lines halves the spacing
+    along them and shrinks the bounds below the gap between the lines."""
     from types import SimpleNamespace
 
     from engine.grammar.coverage import cellset_from_polygons, measure_coverage
-    from engine.grammar.generic import _near_ceiling_levels, _off_lines
+    from engine.grammar.generic import _level_points, _near_ceiling_levels
     from engine.grammar.params import CoverageParams
 
     xs = np.arange(0.04, 4.0, 0.08)
@@ -277,13 +277,18 @@ def test_ceiling_points_told_by_their_level_where_normals_fail():
     good = np.array([(x, y, 2.6) for y in lines_y for x in xs])
     filled = np.array([(x + 0.04, y, 2.6) for y in lines_y for x in xs])  # the same lines, filled in
     cells = cellset_from_polygons([shapely.box(0, 0, 4, 3)], (0.0, 2.6))
-    z = np.r_[filled[:, 2], 2.45, 1.2, 2.62]
     ceiling = SimpleNamespace(normal=(0.0, 0.0, 1.0), offset=2.6, kind="horizontal", storey=0, area=12.0)
-    near, at_level = _near_ceiling_levels(z, [ceiling], 0, 0.0, 2.6, CoverageParams())
-    assert at_level.tolist()[-3:] == [False, False, True] and near.tolist()[-3:] == [False, True, True]
-    pts = np.vstack([filled, [[0.0, 1.5, 2.6], [2.0, 3.0, 2.6]]])
-    off = _off_lines(pts, np.ones(len(pts), bool), np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 3.0]]), 0.05)
-    assert off[:len(filled)].all() and not off[len(filled):].any()  # the points on wall lines go
+    near, levels = _near_ceiling_levels(np.array([2.45, 1.2, 2.62]), [ceiling], 0, 0.0, 2.6, CoverageParams())
+    assert near.tolist() == [False, True, True] and levels.tolist() == [2.6]
+    # the filled-in points (tilted normals) and a wall's top at x = 4 with the wall under it
+    rng = np.random.default_rng(2)
+    wall = np.c_[np.full(400, 4.0), rng.uniform(0, 3, 400), rng.uniform(1.5, 2.6, 400)]
+    pts = np.vstack([filled, wall])
+    nz = np.r_[np.full(len(filled), 0.3), np.zeros(len(wall))]
+    got = _level_points(pts, nz, levels, np.zeros(len(pts), bool), CoverageParams())
+    top = len(filled) + np.flatnonzero(wall[:, 2] >= 2.5)
+    assert got[:len(filled)][filled[:, 0] < 3.85].all()  # the ceiling, but for the wall's top
+    assert len(top) > 10 and not got[top].any() and not got[:len(filled)][filled[:, 0] >= 3.95].any()
     walls = np.zeros((0, 3))
     base = measure_coverage(cells, walls, good).top[0]
     level = measure_coverage(cells, walls, good, xyz_level=filled).top[0]
