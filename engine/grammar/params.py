@@ -75,7 +75,8 @@ class CoverageParams:
     metres."""
     ceiling_by_level: Flag = True
     """Every point within ``ceiling_band`` of a ceiling level counts as ceiling, whatever its
-    normal (a sparse scan's scan lines leave too few neighbours across them for a normal)."""
+    normal, unless it stands over a wall (:func:`.levels.over_walls`): a sparse scan's scan
+    lines leave too few neighbours across them for a normal."""
     alpha_spacing_factor: Factor = 5.0
     """r_α of the ceiling follows the local spacing of the thinned ceiling points: this many
     spacings, at least ``r_alpha`` and at most ``r_alpha_max``."""

@@ -40,6 +40,10 @@ Departures from the thesis (docs/method.md §3.3):
   rewards gluing neighbouring rooms together through the small uncovered cells where walls
   meet (or through a wall cell), which the scope width alone (one oriented box per space)
   cannot see. Uncovered cells may still join a space at its edge; the likelihood decides.
+* The moves see a cell as adjacent to a space only through faces that are no seen wall
+  (``RjmcmcParams.walls_part``): two spaces may meet across a seen wall. A sparse scan may
+  see the wall between two rooms from one side only, one line with no wall cell between
+  them; a room beyond it could then neither start (*add*) nor join the first.
 * ``P_vert`` credits a boundary face to a space only where the space's cell on that face
   is covered: a wall is seen from under the room's ceiling. Otherwise taking in the wall
   cell between two rooms lets one room claim the other room's wall surface.
@@ -290,7 +294,8 @@ class SpaceSearch:
         # floating-point drift of the running sums is negligible (sums of tens of terms)
 
     def adjacent_spaces(self, c: int) -> set:
-        """Ids of the spaces holding a cell that shares a face with cell ``c``."""
+        """Ids of the spaces holding a cell that shares a face with cell ``c`` (with
+        ``walls_part``, a face that is no seen wall)."""
         return {int(self.space_of[o]) for o in self.open_nbrs[c] if self.space_of[o] >= 0}
 
     def components(self, S: set) -> list[frozenset]:
@@ -329,8 +334,8 @@ class SpaceSearch:
 
     def move_remove(self, sid: int):
         """*remove* space ``sid`` when no other space is adjacent to it, or None."""
-        # spaces are never adjacent to one another (add-merge joins them), so every space
-        # qualifies; checked anyway for models set from outside
+        # spaces never share a face that is no seen wall (add-merge joins them), so every
+        # space qualifies; checked anyway for models set from outside
         S = self.spaces[sid]
         for c in S:
             for o in self.open_nbrs[c]:
