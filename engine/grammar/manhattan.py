@@ -36,7 +36,9 @@ Departures from the thesis (docs/method.md §2):
 * Z cuts: the floor and every *ceiling level* of the storey (a level with nothing above
   it), so rooms get their own ceiling heights; desks and shelves (surfaces with something
   above and below) make no cut.
-* Point-on-face index: covered share of the face (see :mod:`.ipof`).
+* Point-on-face index: covered share of the face (see :mod:`.ipof`). A wall face's counts
+  too the points whose normal lies along no axis but leans its way (``faces_by_position``):
+  on a sparse scan a wall is seen as scan lines far apart, and normals tilt about them.
 * Classify: a thin cuboid is a wall only if its top is not seen and does not touch an
   interior shape; a cuboid thin in both directions (a wall junction, whose faces are
   hidden inside the walls) between at least two walls is a wall. A cuboid on the floor
@@ -162,6 +164,11 @@ def _or_void(cells, xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, pa
         return cells  # no storey above (a top storey, an attic under its roof): no void
     above, floor = cell_lookup(xyz[band, :2], c), cell_lookup(upper, c)
     return lambda k: cells(k) | (above(k) & ~floor(k))
+
+
+_LEVEL_CLEARANCE = 0.1
+"""A wall face's points along no axis count only this far above the floor and below the
+ceiling (metres): at the edges of those planes normals tilt too."""
 
 
 def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, storey: int,
@@ -320,7 +327,12 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
     margin = 2.0 * float(params.noise or 0.0)
     def faces_on(axis, planes, u_edges, v_edges, ucol, vcol, skip=()):
         out = np.zeros((len(planes), len(u_edges) - 1, len(v_edges) - 1))
-        sel = np.flatnonzero(along[axis])
+        sel = along[axis]
+        if axis < 2 and params.faces_by_position:  # and those along no axis leaning its way
+            h = np.hypot(n[:, 0], n[:, 1])
+            sel = sel | (~along[0] & ~along[1] & ~along[2] & (n[:, axis] >= cos_t * h) & (h >= 0.1)
+                         & (p[:, 2] > Z[0] + _LEVEL_CLEARANCE) & (p[:, 2] < Z[-1] - _LEVEL_CLEARANCE))
+        sel = np.flatnonzero(sel)
         t = p[sel, axis]
         todo = [q for q in range(len(planes)) if q not in skip]
         if len(todo) > _SORT_PLANES:  # many planes: one sort, then bisection

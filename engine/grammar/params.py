@@ -308,6 +308,11 @@ class ManhattanParams:
     min_passage_width: Metres = 2.0
     """A thin unseen cuboid with floor under it between two interiors, at least this long, is a
     wide opening under a beam or lintel that joins them (narrower: a door); 0 turns it off."""
+    faces_by_position: Flag = True
+    """A wall face's point-on-face index counts too the points within δ of its plane whose
+    normal lies along no axis but leans its way (its horizontal part along the face's axis),
+    away from the floor and the ceiling: a sparse scan sees a wall as scan lines far apart,
+    and a normal tilts about its scan line, between the wall's normal and the vertical."""
     ceiling_by_level: Flag = True
     """A point within δ of a ceiling level is on that ceiling whatever its normal, unless it
     stands over a wall (:func:`.levels.over_walls`): a sparse scan's scan lines leave a
