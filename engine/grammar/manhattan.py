@@ -325,13 +325,16 @@ def place_storey(xyz: np.ndarray, normals: np.ndarray, frame: StoreyFrame, store
 
     # point-on-face index of every face of the grid, plane by plane
     margin = 2.0 * float(params.noise or 0.0)
+    if params.faces_by_position:  # a wall face counts too the points along no axis leaning its way
+        h = np.hypot(n[:, 0], n[:, 1])
+        loose = (~along[0] & ~along[1] & ~along[2] & (h >= 0.1) & (p[:, 2] > Z[0] + _LEVEL_CLEARANCE)
+                 & (p[:, 2] < Z[-1] - _LEVEL_CLEARANCE))
+
     def faces_on(axis, planes, u_edges, v_edges, ucol, vcol, skip=()):
         out = np.zeros((len(planes), len(u_edges) - 1, len(v_edges) - 1))
         sel = along[axis]
-        if axis < 2 and params.faces_by_position:  # and those along no axis leaning its way
-            h = np.hypot(n[:, 0], n[:, 1])
-            sel = sel | (~along[0] & ~along[1] & ~along[2] & (n[:, axis] >= cos_t * h) & (h >= 0.1)
-                         & (p[:, 2] > Z[0] + _LEVEL_CLEARANCE) & (p[:, 2] < Z[-1] - _LEVEL_CLEARANCE))
+        if axis < 2 and params.faces_by_position:
+            sel = sel | (loose & (n[:, axis] >= cos_t * h))
         sel = np.flatnonzero(sel)
         t = p[sel, axis]
         todo = [q for q in range(len(planes)) if q not in skip]
