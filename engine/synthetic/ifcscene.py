@@ -13,7 +13,8 @@ into:
   (a surface style with transparency ≥ ``glass_transparency``) is left out — the simulator
   has no glazing label or partial transparency — so a window is a clear hole in its frame.
   An open door loses its leaf: every connected part of the door that reaches neither side
-  of the door's width nor its top (leaf, handles, glazing bars) is left out;
+  of the door's width nor its top (leaf, handles, glazing bars), or that covers the middle
+  of the door's elevation (a leaf fitted to its frame), is left out;
 * everything else (stairs, railings, beams, members, furniture, ...): LABEL_CLUTTER;
 * outside: a ground plane ``ground_offset`` below the lowest floor of a space and four
   vertical screens ``surroundings_distance`` around the building (LABEL_CLUTTER), so that
@@ -330,18 +331,34 @@ def _components(tri: np.ndarray, nv: int) -> np.ndarray:
     return lab[tri[:, 0]]
 
 
+def _covers(q: np.ndarray, c: np.ndarray) -> bool:
+    """True when one of the triangles ``q`` (m, 3, 2) contains the point ``c`` (2,)."""
+    a, b, d = q[:, 0], q[:, 1], q[:, 2]
+
+    def side(p1, p2):
+        return (p2[:, 0] - p1[:, 0]) * (c[1] - p1[:, 1]) - (p2[:, 1] - p1[:, 1]) * (c[0] - p1[:, 0])
+
+    s1, s2, s3 = side(a, b), side(b, d), side(d, a)
+    return bool((((s1 >= 0) & (s2 >= 0) & (s3 >= 0)) | ((s1 <= 0) & (s2 <= 0) & (s3 <= 0))).any())
+
+
 def _leaf_triangles(el: IfcElementMesh, tol: float) -> np.ndarray:
-    """(m,) bool: triangles of a door's parts inside its frame (leaf, handles, bars)."""
+    """(m,) bool: triangles of a door's parts inside its frame (leaf, handles, bars), and of
+    any part that covers the middle of the door's elevation (a leaf that fits its frame
+    closer than ``tol``; a frame is a ring and leaves the middle open)."""
     v, t = el.vertices, el.triangles
     u = el.axis if el.axis is not None else np.array([1.0, 0.0])
     pu = v[:, :2] @ u
     lo, hi, top = pu.min(), pu.max(), v[:, 2].max()
+    mid = np.array([(lo + hi) / 2, (v[:, 2].min() + top) / 2])
+    elev = np.stack([pu, v[:, 2]], axis=1)
     comp = _components(t, len(v))
     leaf = np.zeros(len(t), bool)
     for c in np.unique(comp):
         k = comp == c
         idx = np.unique(t[k])
-        if pu[idx].min() > lo + tol and pu[idx].max() < hi - tol and v[idx, 2].max() < top - tol:
+        inside = pu[idx].min() > lo + tol and pu[idx].max() < hi - tol and v[idx, 2].max() < top - tol
+        if inside or _covers(elev[t[k]], mid):
             leaf |= k
     return leaf
 
