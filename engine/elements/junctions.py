@@ -12,7 +12,7 @@ looked at (a few per wall).
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -90,3 +90,17 @@ def clear_of(hidden: np.ndarray, u0: float, u1: float, c0: int, c1: int, cell: f
     if len(right):
         u1 = min(u1, (c1 + int(right[0])) * cell)
     return u0, u1
+
+
+def abutting(hidden: Optional[np.ndarray], c0: int, c1: int, cell: float, reach: float) -> tuple:
+    """Where the nearest wall standing against the face (``hidden``, (nu,) bool columns)
+    ends towards a hole over columns ``c0:c1``, within ``reach`` metres of it on either
+    side: (left, right) in metres along the wall, None where there is none."""
+    if hidden is None:
+        return None, None
+    n = int(math.ceil(reach / cell))
+    a = max(0, c0 - n)
+    left = np.flatnonzero(hidden[a:max(a, c0)])
+    right = np.flatnonzero(hidden[c1:c1 + n])
+    return ((a + int(left[-1]) + 1) * cell if len(left) else None,
+            (c1 + int(right[0])) * cell if len(right) else None)

@@ -40,7 +40,7 @@ from ..model import Polyhedron, Shape, ShapeType, Storey
 from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_deficit, hole_edge, leaf_columns,
                    leaf_needed, leaf_to_floor, near_points, observed_columns, on_solid, round_hole)
 from .inputs import checked
-from .junctions import clear_of, hidden_columns
+from .junctions import abutting, clear_of, hidden_columns
 from .leaves import flush_leaves
 from .overlap import admit, overlap
 from .params import OpeningParams
@@ -432,8 +432,9 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     zlo, zhi = (z0 + p.edge_band if floor_reach else zb) + 0.05, zt - 0.05
     cr = dd.cross  # where rays passed the faces
     pu = cr[(cr[:, 1] >= zlo) & (cr[:, 1] <= zhi), 0]
-    el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol, proud, dev, pu)
-    er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol, proud, dev, pu)
+    bl, br = abutting(dd.hidden, c0, c1, c, 0.5 + srch)
+    el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol, proud, dev, pu, bl)
+    er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol, proud, dev, pu, br)
     el = max(ul - c if el is None else max(el, ul - srch), 0.0)  # not past the run's ends
     er = min(ur + c if er is None else min(er, ur + srch), w.length)
     if dd.hidden is not None:  # ... nor into a wall standing against a face

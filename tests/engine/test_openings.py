@@ -407,6 +407,41 @@ def test_a_hole_seen_only_from_the_outer_side_needs_rays_through_it(rays):
     assert [o.attributes["kind"] for o in ops] == (["door"] if rays else []), [o.attributes for o in ops]
 
 
+def _cross_wall(wid, u, v0, v1, t, sides):
+    """A wall run across the hand-made wall: at u, from v0 to v1 (model frame)."""
+    a, b = _to_model([[u, v0, 0.0], [u, v1, 0.0]])[:, :2]
+    d = (b - a) / np.linalg.norm(b - a)
+    n = np.array([-d[1], d[0]])
+    fp = [a - n * t / 2, b - n * t / 2, b + n * t / 2, a + n * t / 2]
+    return Shape(wid, ShapeType.WALL, Polyhedron.prism(fp, FLOOR, FLOOR + H), storey=0, terminal=True,
+                 attributes={"thickness": t, "height": H, "external": False, "thickness_measured": True,
+                             "axis_line": [a.tolist(), b.tolist()], "sides": list(sides), "joins": []})
+
+
+@pytest.mark.parametrize("seed, sx", [(0, 2.2), (0, 2.5), (1, 2.2), (1, 2.5)])
+def test_a_door_at_the_end_of_a_hall_is_measured_from_the_hall_s_own_face(seed, sx):
+    """A 1.0 m door in an exterior wall at the end of a 1.5 m hall (partitions abut the wall
+    0.25 m either side of it), one scanner in the hall and one in each room beside it, 2° apart
+    (terrestrial columns 8-9 cm apart on the wall). The gap expected after the face's last
+    column was measured over 0.5 m of face behind it, across the partition's body into the
+    next room's face: a gap that is no gap of the sampling, and the door read 0.90-0.93 m. Over
+    the hall's own face: 0.96-1.02 m (FZK-Haus's front door, 0.85-0.88 for 1.01 before)."""
+    t = T_EXT
+    parts = [((1.6, t / 2, 0), (1.75, 3.0, H)), ((3.25, t / 2, 0), (3.4, 3.0, H))]
+    outside = [((-5.0, -6.2, 0.0), (L + 5.0, -6.0, 8.0)), ((-5.0, -6.0, -0.2), (L + 5.0, -t / 2, 0.0))]
+    boxes = _room(t / 2, 4.0) + _holed_wall(t, (2.0, 3.0, 0.0, 2.1)) + parts + outside
+    walls = [_wall("w_ext", 0.0, 0.0, L, t, ("hall", None), True),
+             _cross_wall("p1", 1.675, t / 2, 3.0, 0.15, ("room_l", "hall")),
+             _cross_wall("p2", 3.325, t / 2, 3.0, 0.15, ("hall", "room_r"))]
+    xyz, idx, pos = _scan(boxes, [(sx, 2.6, 1.5), (0.8, 1.5, 1.5), (4.2, 1.5, 1.5)], step=math.radians(2.0),
+                          seed=seed)
+    ops = detect_openings(walls, [STOREY], xyz, scan_index=idx, scanner_positions=pos,
+                          exterior_ids={0: "outside_0"})
+    got = [(o.parent, o.attributes["kind"], round(o.attributes["width"], 3)) for o in ops]
+    assert [g[:2] for g in got] == [("w_ext", "door")], got
+    assert abs(got[0][2] - 1.0) <= 0.08 and abs(_centre_u(ops[0]) - 2.5) <= 0.05, got
+
+
 def test_an_opening_stops_at_the_end_of_its_wall_run():
     """A 1.0 m door whose hole starts 0.3 m before its wall run does (the run begins at a
     junction the model put inside the hole; the Duplex's hallway doors beside a corner were
