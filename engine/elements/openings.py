@@ -303,7 +303,9 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
         for s in (0, 1):
             if len(dd.scans[s]) == 0:
                 continue
-            for k in np.flatnonzero(dd.scans[s] >= floor_n):
+            # a scanner with a few points on the face may see it mostly through its holes (a
+            # glazed wall): its rays through the face count when they are many (below)
+            for k in np.flatnonzero(dd.scans[s] >= (floor_n if stand_in else 1)):
                 need.setdefault(int(k), []).append((wi, s))
     if not need:
         return
@@ -367,8 +369,13 @@ def _ray_test(walls: list[_Wall], data: list[_Data], xyz, scan_index, scanners, 
             flat = (np.clip((uc[ok] / c).astype(np.int64), 0, nu - 1) * nz
                     + np.clip(((zc[ok] - w.floor_z) / c).astype(np.int64), 0, nz - 1))
             is_thr = thr[m][ok]
+            glance = dd.scans[s][k] < floor_n[k]  # it sees the face through its holes, if at all:
+            if glance and is_thr.sum() < p.min_scan_points:  # as many rays through as a face's points
+                continue
             dd.through[s] += np.bincount(flat[is_thr], minlength=nu * nz).reshape(nu, nz)
             dd.cross += [] if stand_in else [np.c_[uc[ok][is_thr], zc[ok][is_thr]]]
+            if glance:
+                continue  # its rays through count, not its few points' shadows
             shade, wk = ~is_thr, wall_k[sel][m][ok]
             other = shade & (wk >= 0) & (wk != wi)
             if other.any():

@@ -96,7 +96,9 @@ class OpeningParams:
     that makes it an occlusion."""
     min_scan_points: Count = 30
     """A scanner sees a face (and takes part in its ray test) when it measured this many
-    points on it (fewer, down to 5, for a scanner with fewer than 200 × as many points)."""
+    points on it (fewer, down to 5, for a scanner with fewer than 200 × as many points). A
+    real scanner with fewer that sees the face through its holes (this many of its rays pass
+    through it: glazing) adds those rays, not its few points' shadows."""
     edge_search: Metres = 0.35
     """A gap's edges are looked for this far beyond its empty cells, metres."""
     cue_share: Ratio = 0.3
