@@ -75,7 +75,8 @@ def split_by_bottom(dd, rect, p: OpeningParams) -> list:
         return ((cols.max() - cols.min() + 1) * c >= least
                 or (len(cols) >= 2 and (side[1] - side[0]) * c >= least))
 
-    if not (c0 < k < c1 and spans(lows, door_side, p.min_door_width) and spans(highs, window_side, p.min_window_width)):
+    if not (c0 < k < c1 and spans(lows, door_side, p.min_door_width)
+            and spans(highs, window_side, p.min_window_width)):
         return [rect]
     r_floor = int(math.ceil(p.edge_band / c))
     left, right = (c0, k, r0, r1), (k, c1, r0, r1)  # in order along the wall
