@@ -65,7 +65,12 @@ def _scan(boxes, scanners, *, glass=None, step=math.radians(0.5), sigma=0.005, s
 
 def _wall(wid, u0, v, u1, t, sides, external):
     """A wall run along u from u0 to u1 at v (centre line), thickness t, in the model frame."""
-    a, b = _to_model([[u0, v, 0.0], [u1, v, 0.0]])[:, :2]
+    return _run(wid, (u0, v), (u1, v), t, sides, external)
+
+
+def _run(wid, p, q, t, sides, external):
+    """A wall run from p to q ((u, v) of its centre line), thickness t, in the model frame."""
+    a, b = _to_model([[p[0], p[1], 0.0], [q[0], q[1], 0.0]])[:, :2]
     d = (b - a) / np.linalg.norm(b - a)
     n = np.array([-d[1], d[0]])
     fp = [a - n * t / 2, b - n * t / 2, b + n * t / 2, a + n * t / 2]
@@ -436,17 +441,6 @@ def test_a_hole_seen_only_from_the_outer_side_needs_rays_through_it(rays):
     assert [o.attributes["kind"] for o in ops] == (["door"] if rays else []), [o.attributes for o in ops]
 
 
-def _cross_wall(wid, u, v0, v1, t, sides):
-    """A wall run across the hand-made wall: at u, from v0 to v1 (model frame)."""
-    a, b = _to_model([[u, v0, 0.0], [u, v1, 0.0]])[:, :2]
-    d = (b - a) / np.linalg.norm(b - a)
-    n = np.array([-d[1], d[0]])
-    fp = [a - n * t / 2, b - n * t / 2, b + n * t / 2, a + n * t / 2]
-    return Shape(wid, ShapeType.WALL, Polyhedron.prism(fp, FLOOR, FLOOR + H), storey=0, terminal=True,
-                 attributes={"thickness": t, "height": H, "external": False, "thickness_measured": True,
-                             "axis_line": [a.tolist(), b.tolist()], "sides": list(sides), "joins": []})
-
-
 @pytest.mark.parametrize("seed, sx", [(0, 2.2), (0, 2.5), (1, 2.2), (1, 2.5)])
 def test_a_door_at_the_end_of_a_hall_is_measured_from_the_hall_s_own_face(seed, sx):
     """A 1.0 m door in an exterior wall at the end of a 1.5 m hall (partitions abut the wall
@@ -460,8 +454,8 @@ def test_a_door_at_the_end_of_a_hall_is_measured_from_the_hall_s_own_face(seed, 
     outside = [((-5.0, -6.2, 0.0), (L + 5.0, -6.0, 8.0)), ((-5.0, -6.0, -0.2), (L + 5.0, -t / 2, 0.0))]
     boxes = _room(t / 2, 4.0) + _holed_wall(t, (2.0, 3.0, 0.0, 2.1)) + parts + outside
     walls = [_wall("w_ext", 0.0, 0.0, L, t, ("hall", None), True),
-             _cross_wall("p1", 1.675, t / 2, 3.0, 0.15, ("room_l", "hall")),
-             _cross_wall("p2", 3.325, t / 2, 3.0, 0.15, ("hall", "room_r"))]
+             _run("p1", (1.675, t / 2), (1.675, 3.0), 0.15, ("room_l", "hall"), False),
+             _run("p2", (3.325, t / 2), (3.325, 3.0), 0.15, ("hall", "room_r"), False)]
     xyz, idx, pos = _scan(boxes, [(sx, 2.6, 1.5), (0.8, 1.5, 1.5), (4.2, 1.5, 1.5)], step=math.radians(2.0),
                           seed=seed)
     ops = detect_openings(walls, [STOREY], xyz, scan_index=idx, scanner_positions=pos,
