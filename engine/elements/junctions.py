@@ -81,15 +81,9 @@ def clear_of(hidden: np.ndarray, u0: float, u1: float, c0: int, c1: int, cell: f
     face's points end at the abutting wall's far face, the hole's jamb may stand a few
     centimetres on (the Duplex's front door 3.5 cm beside a partition: measured from the
     partition's far face, 0.97 m for 0.81)."""
-    a = int(math.floor(u0 / cell + 1e-9))
-    left = np.flatnonzero(hidden[max(0, a):max(0, c0)])
-    if len(left):
-        u0 = max(u0, (max(0, a) + int(left[-1]) + 1) * cell)
-    b = int(math.ceil(u1 / cell - 1e-9))
-    right = np.flatnonzero(hidden[c1:max(c1, b)])
-    if len(right):
-        u1 = min(u1, (c1 + int(right[0])) * cell)
-    return u0, u1
+    left, right = _nearest_ends(hidden, int(math.floor(u0 / cell + 1e-9)), c0, c1,
+                                int(math.ceil(u1 / cell - 1e-9)), cell)
+    return (u0 if left is None else max(u0, left)), (u1 if right is None else min(u1, right))
 
 
 def abutting(hidden: Optional[np.ndarray], c0: int, c1: int, cell: float, reach: float) -> tuple:
@@ -99,8 +93,14 @@ def abutting(hidden: Optional[np.ndarray], c0: int, c1: int, cell: float, reach:
     if hidden is None:
         return None, None
     n = int(math.ceil(reach / cell))
-    a = max(0, c0 - n)
+    return _nearest_ends(hidden, c0 - n, c0, c1, c1 + n, cell)
+
+
+def _nearest_ends(hidden: np.ndarray, a: int, c0: int, c1: int, b: int, cell: float) -> tuple:
+    """The hidden columns nearest a hole over ``c0:c1``, among ``a:c0`` and ``c1:b``: where
+    they end towards the hole (metres), None where there are none."""
+    a = max(0, a)
     left = np.flatnonzero(hidden[a:max(a, c0)])
-    right = np.flatnonzero(hidden[c1:c1 + n])
+    right = np.flatnonzero(hidden[c1:max(c1, b)])
     return ((a + int(left[-1]) + 1) * cell if len(left) else None,
             (c1 + int(right[0])) * cell if len(right) else None)
