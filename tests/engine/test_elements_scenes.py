@@ -114,7 +114,7 @@ def test_duplex_party_wall_is_one_wall_without_openings(results, noise):
         assert r["windows"]["recall"] >= 19 / 24 and r["windows"]["precision"] >= 0.9, r["windows"]
     from engine.evaluation.elements import _in_truth_frame, _plan
 
-    from shapely.geometry import Point
+    from shapely.geometry import Point, Polygon
 
     mt = _in_truth_frame(m, sc.truth)
     # the party wall of level 2 (level 1's party walls are stair and closet walls)
@@ -367,6 +367,29 @@ def test_a_hallway_strip_between_a_far_scans_lines_is_the_hallways(results):
     # bedroom's door into the hallway led outside (engine.grammar.passages.enclosed_pockets)
     assert {"Bedroom 2E", "HallwayE"} not in edges and {"Bedroom 2E", "exterior_s2"} not in edges, edges
     assert r["spaces"]["mean_iou"] >= 0.955, r["spaces"]["mean_iou"]  # measured 0.967 (0.950, 0.958 before)
+
+
+@pytest.mark.slow
+def test_a_hallway_cut_by_another_rooms_wall_line_stays_whole(results):
+    """The Duplex, TLS, 100k points, seed 4: the lines of two walls elsewhere on level 2 (a
+    utility room's and a bathroom's faces, 6 cm apart) cut the west hallway 0.6 m before its
+    end. The 6 cm strip between them held the hallway's floor and ceiling points as densely as
+    the hallway beside it, but no raster cell of the face index fits in it: it read unseen and
+    was outside, so the 0.54 m end beyond it became a wall's inside — a 0.7 m wall with the
+    bedroom's door in it (measured 1.25 m for 0.86) and a 1.95 m "door" across the hallway.
+    The strip is measured along its centre line now: the hallway reaches its end."""
+    from engine.evaluation.elements import _in_truth_frame
+
+    sc, m, r = _run(results, "duplex", "tls", 4, points=100_000)
+    mt = _in_truth_frame(m, sc.truth)
+    end = np.array([1.4, -11.3, 4.4])  # the hallway's end, level 2
+    hall = [s for s in mt.spaces if np.all(s.bounds[0] <= end) and np.all(end <= s.bounds[1])]
+    assert len(hall) == 1 and hall[0].bounds[1, 1] > -9.0, [s.bounds.round(2).tolist() for s in hall]
+    across = [d for d in mt.doors if abs(d.scope.center[1] + 11.01) < 0.3 and d.scope.center[0] < 3.0]
+    assert not across, [d.scope.center.round(2).tolist() for d in across]
+    truth = {t.id: t for t in sc.truth.doors}
+    door = next(t for t in truth.values() if abs(t.scope.center[0] - 1.85) < 0.05 and abs(t.scope.center[1] + 11.61) < 0.05)
+    assert door.id in {t for _, t in r["doors"]["pairs"]}, r["doors"]
 
 
 @pytest.mark.slow

@@ -219,6 +219,25 @@ def test_point_on_face_index_discs_stay_in_their_own_rectangle():
     assert got[1] == 0.0 and got[2] == pytest.approx(alone[2, 0], abs=1e-12) and got[2] > 0.03
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_point_on_face_index_measures_a_rectangle_thinner_than_its_raster(seed):
+    """A 7 cm strip between two cuts, on a surface sampled as densely as either side of it,
+    is seen as well as they are; it read 0 (no centre of a σ/3 = 5 cm raster cell lies in it
+    once its margins are off: the Duplex's hallway ended at such a strip). Empty, it stays 0."""
+    rng = np.random.default_rng(seed)
+    sigma = 0.15
+    uv = rng.random((int(4.0 / (sigma / 2) ** 2), 2)) * 2.0  # points σ/2 apart over 2 m x 2 m
+    u = np.array([0.0, 1.066, 1.134, 2.0])  # inside its margins: 1.076-1.124, between cell centres
+    got = grid_face_index(uv, u, np.array([0.0, 2.0]), sigma, margin=0.01)[:, 0]
+    assert got[1] >= 0.9 and min(got[0], got[2]) >= 0.9, got
+    empty = uv[(uv[:, 0] < u[1]) | (uv[:, 0] > u[2])]
+    assert grid_face_index(empty, u, np.array([0.0, 2.0]), sigma, margin=0.01)[1, 0] == 0.0
+    # a few points: the share of its length their discs reach, not all of it
+    few = np.vstack([empty, [[1.1, 0.5], [1.1, 1.5]]])
+    part = grid_face_index(few, u, np.array([0.0, 2.0]), sigma, margin=0.01)[1, 0]
+    assert part == pytest.approx(2 * 2 * sigma / (2.0 - 2 * 0.01), abs=1e-9), part
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_point_on_face_index_follows_local_spacing(seed):
     """A ceiling seen sparsely from far away (points 2.5 σ apart, evenly) is seen with the
