@@ -199,7 +199,8 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams,
     with some floor seen (IPoF(bottom) > ``min_room_evidence``; a stair's void may take the
     rest) and nothing interior above it, is interior when it is closed all round — on every
     side a wall is seen in part (IPoF > ``min_room_evidence``: a far wall beside a void is
-    seen sparsely too) or an interior, a wall or another such cuboid touches it, or a gap in a
+    seen sparsely too) or an interior, a wall or another such cuboid touches it, or the grid's
+    edge (the outermost wall plane), or a gap in a
     wall line (an exterior cuboid no thicker than a wall) that is closed so itself — and open
     to a room (an unseen face, IPoF < τ, toward an interior cuboid, or toward a sliver no thicker
     than 2 ``shape_buffer`` — two cuts of one surface — with the room beyond it; the sliver
@@ -244,8 +245,11 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams,
             size = np.ptp(shapes[(i, j, 0)].geometry.bounds[:, :2], axis=0)
             for f, di, dj in _SIDES:
                 q = (i + di, j + dj)
-                if seen((i, j, 0), f) or q in inside or \
-                        (0 <= q[0] < nx and 0 <= q[1] < ny and types[q[0], q[1], 0] in closed):
+                # past the grid's edge lies the outermost wall plane (as for a room, and a run
+                # of :func:`furniture_strips`), seen or not along the pocket (the Duplex's
+                # hallway, TLS: the outer wall at its end hidden behind the stair, 0.04 seen)
+                if seen((i, j, 0), f) or q in inside or not (0 <= q[0] < nx and 0 <= q[1] < ny) or \
+                        types[q[0], q[1], 0] in closed:
                     continue
                 # a gap's end too short to measure (a sliver between two close cuts): the wall
                 # seen on that side of the cuboids across it runs on through it
