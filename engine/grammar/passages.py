@@ -200,7 +200,7 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams,
     rest) and nothing interior above it, is interior when it is closed all round — on every
     side a wall is seen in part (IPoF > ``min_room_evidence``: a far wall beside a void is
     seen sparsely too) or an interior, a wall or another such cuboid touches it, or the grid's
-    edge (the outermost wall plane), or a gap in a
+    edge where the outer wall is seen beside it along the edge, or a gap in a
     wall line (an exterior cuboid no thicker than a wall) that is closed so itself — and open
     to a room (an unseen face, IPoF < τ, toward an interior cuboid, or toward a sliver no thicker
     than 2 ``shape_buffer`` — two cuts of one surface — with the room beyond it; the sliver
@@ -237,6 +237,27 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams,
     def seen(q, f):  # a wall seen in part on face f of cuboid q
         return q in shapes and shapes[q].support.get(f"ipof_f{f}", 0.0) > params.min_room_evidence
 
+    def outer_wall_runs_on(c, f, di):
+        """Past the grid's edge lies the outermost wall plane. Where the first cuboids wider
+        than a wall either side of ``c`` along the edge see it (face ``f``, IPoF ≥ τ), that
+        wall runs on past ``c`` however little of it shows there (the Duplex's east hallway,
+        TLS: its end's outer wall hidden behind the stair, 0.04 seen, 0.45-0.50 beside it):
+        closed. Unseen beside it too, the edge may be only where the scan stopped: open."""
+        step = (0, 1) if di else (1, 0)
+        along = 1 if di else 0
+        found = False
+        for sgn in (-1, 1):
+            a, b = c[0] + sgn * step[0], c[1] + sgn * step[1]
+            while 0 <= a < nx and 0 <= b < ny and \
+                    float(np.ptp(shapes[(a, b, 0)].geometry.bounds[:, along])) <= t_max:
+                a, b = a + sgn * step[0], b + sgn * step[1]
+            if not (0 <= a < nx and 0 <= b < ny):
+                continue
+            if shapes[(a, b, 0)].support.get(f"ipof_f{f}", 0.0) < tau:
+                return False
+            found = True
+        return found
+
     inside = cand | gaps
     changed = True
     while changed:  # a cuboid with a side open to the outside drops out, until none does
@@ -245,11 +266,10 @@ def enclosed_pockets(shapes: dict, types: np.ndarray, params: ManhattanParams,
             size = np.ptp(shapes[(i, j, 0)].geometry.bounds[:, :2], axis=0)
             for f, di, dj in _SIDES:
                 q = (i + di, j + dj)
-                # past the grid's edge lies the outermost wall plane (as for a room, and a run
-                # of :func:`furniture_strips`), seen or not along the pocket (the Duplex's
-                # hallway, TLS: the outer wall at its end hidden behind the stair, 0.04 seen)
-                if seen((i, j, 0), f) or q in inside or not (0 <= q[0] < nx and 0 <= q[1] < ny) or \
-                        types[q[0], q[1], 0] in closed:
+                if seen((i, j, 0), f) or q in inside or (0 <= q[0] < nx and 0 <= q[1] < ny and
+                                                         types[q[0], q[1], 0] in closed):
+                    continue
+                if not (0 <= q[0] < nx and 0 <= q[1] < ny) and outer_wall_runs_on((i, j), f, di):
                     continue
                 # a gap's end too short to measure (a sliver between two close cuts): the wall
                 # seen on that side of the cuboids across it runs on through it

@@ -846,42 +846,41 @@ def test_a_pocket_beside_an_unseen_closet_is_closed_by_the_wall_between(closet_f
     there no scan saw (both faces unseen), with a closet no scanner entered behind it; the
     stretch counted as a gap leading outside, the strip stayed exterior and the bedroom's door
     into the hallway led outside. A gap between two wall parts toward a cuboid whose floor was
-    never seen closes the pocket; toward one whose floor was seen (looked into) it does not —
-    here that closet opens onto an outside cuboid beyond it (past the grid's edge lies the
-    outer wall, which would close it)."""
+    never seen closes the pocket; toward one whose floor was seen (looked into) it does not."""
     from engine.grammar.geometry import box_of
     from engine.grammar.passages import enclosed_pockets
     from engine.model import Shape
 
-    X, Y = np.array([-1.0, 0.0, 1.52, 1.65, 3.61]), np.array([0.0, 0.11, 0.65, 4.65])
+    X, Y = np.array([0.0, 1.52, 1.65, 3.61]), np.array([0.0, 0.11, 0.65, 4.65])
     I, E, W = ShapeType.INTERIOR, ShapeType.EXTERIOR, ShapeType.WALL
-    kinds = {(1, 0): W, (2, 0): W, (3, 0): W, (1, 1): E, (2, 1): E, (3, 1): E, (1, 2): I, (2, 2): W, (3, 2): I,
-             (0, 0): E, (0, 1): E, (0, 2): E}  # column 0: outside, never seen
-    faces = {(3, 1): dict(ipof_f2=0.56, ipof_f3=0.30, ipof_f4=0.0, ipof_f5=0.01, ipof_bottom=0.22, ipof_top=0.09),
-             (2, 1): dict(ipof_bottom=0.0, ipof_top=0.0),
-             (1, 1): dict(ipof_bottom=closet_floor, ipof_top=0.1, ipof_f2=0.5, ipof_f4=0.9, ipof_f5=0.0),
-             **{(0, j): dict(ipof_bottom=0.0, ipof_top=0.0) for j in range(3)}}
-    shapes, types = {}, np.empty((4, 3, 1), dtype=object)
+    kinds = {(0, 0): W, (1, 0): W, (2, 0): W, (0, 1): E, (1, 1): E, (2, 1): E, (0, 2): I, (1, 2): W, (2, 2): I}
+    faces = {(2, 1): dict(ipof_f2=0.56, ipof_f3=0.30, ipof_f4=0.0, ipof_f5=0.01, ipof_bottom=0.22, ipof_top=0.09),
+             (1, 1): dict(ipof_bottom=0.0, ipof_top=0.0),
+             (0, 1): dict(ipof_bottom=closet_floor, ipof_top=0.1, ipof_f2=0.5, ipof_f4=0.9, ipof_f5=0.0)}
+    shapes, types = {}, np.empty((3, 3, 1), dtype=object)
     for (i, j), t in kinds.items():
         sup = {f"ipof_f{q}": 0.0 for q in range(2, 6)}
         sup.update(faces.get((i, j), {"ipof_bottom": 0.9, "ipof_top": 0.9}))
-        thin = 0 if i == 2 else (1 if j == 0 and i else None)
+        thin = 0 if i == 1 else (1 if j == 0 else None)
         shapes[i, j, 0] = Shape(id=f"c{i}{j}", type=t, grid=(i, j, 0), support=sup,
                                 geometry=box_of((X[i], Y[j], 0), (X[i + 1], Y[j + 1], 2.6)),
                                 attributes={"thin_axis": thin})
         types[i, j, 0] = t
     enclosed_pockets(shapes, types, ManhattanParams(max_wall_thickness=0.3, shape_buffer=0.05))
-    assert types[3, 1, 0] == expect and shapes[3, 1, 0].type == expect
+    assert types[2, 1, 0] == expect and shapes[2, 1, 0].type == expect
 
 
-@pytest.mark.parametrize("beyond, expect", [(None, ShapeType.INTERIOR), (ShapeType.EXTERIOR, ShapeType.EXTERIOR)])
-def test_a_pocket_at_the_grids_edge_is_closed_by_the_outer_wall(beyond, expect):
+@pytest.mark.parametrize("beyond, beside, expect", [
+    (None, 0.5, ShapeType.INTERIOR),   # the outer wall seen beside the pocket runs on past it
+    (None, 0.0, ShapeType.EXTERIOR),   # unseen beside it too: the edge may be where the scan stopped
+    (ShapeType.EXTERIOR, 0.5, ShapeType.EXTERIOR)])  # the grid reaches on: outside beyond
+def test_a_pocket_at_the_grids_edge_is_closed_by_the_outer_wall(beyond, beside, expect):
     """The Duplex, TLS, seed 3, level 2: the east hallway's end (a 0.54 m strip, its ceiling
     between a far scan's lines) runs to the outer wall, which the stair hides there (0.04 of
-    it seen): the grid's edge, the outermost wall plane, counted as open to the outside, the
-    strip stayed exterior and the hallway ended 0.6 m short of the bedroom's wall, a "wall"
-    with a 1.95 m "door" in it. Past the grid's edge lies that wall: closed (as for a room).
-    An exterior cuboid there instead (the grid reaching on) leaves the pocket open."""
+    it seen, 0.45-0.50 beside it): the grid's edge counted as open to the outside, the strip
+    stayed exterior and the hallway ended 0.6 m short of the bedroom's wall, a "wall" with a
+    1.95 m "door" in it. Past the grid's edge lies the outermost wall plane: seen beside the
+    pocket along the edge, it closes it."""
     from engine.grammar.geometry import box_of
     from engine.grammar.passages import enclosed_pockets
     from engine.model import Shape
@@ -898,6 +897,8 @@ def test_a_pocket_at_the_grids_edge_is_closed_by_the_outer_wall(beyond, expect):
             sup.update(ipof_bottom=0.9, ipof_top=0.9)
             if (i, j) == (0, 1):  # the pocket: the wall behind it seen, the outer wall barely
                 sup.update(ipof_f2=0.56, ipof_f3=0.04, ipof_f5=0.5, ipof_bottom=0.21, ipof_top=0.07)
+            elif (i, j) == (0, 2):  # the room beyond the pocket, along the grid's edge
+                sup.update(ipof_f3=beside)
             elif i == 1:
                 sup.update(ipof_bottom=0.0, ipof_top=0.0)
             shapes[i, j, 0] = Shape(id=f"c{i}{j}", type=t, grid=(i, j, 0), support=sup,
