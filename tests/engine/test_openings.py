@@ -344,6 +344,30 @@ def test_sparse_glazing_on_a_low_sill_is_a_window_and_a_sparse_doorway_a_doorway
     assert [(d[0], d[1]) for d in door] == [("door", 0.0)], door
 
 
+def test_a_stray_under_a_sill_seen_in_many_columns_is_a_stray():
+    """The Duplex's 4.8 m terrace glazing on its 10 cm sill, terrestrial at σ 1.2 cm: the sill's
+    top in 14 of 96 columns, one of them at 2 cm with a floor point (the range noise pushed
+    it into the thickness) — a doorless opening down to the floor, since any floor point ruled
+    the sill out. A tenth of the columns may show the floor, as a cut of a door beside a
+    window allows; a doorway, showing the floor wherever it shows anything, stays no sill."""
+    from engine.elements.params import OpeningParams
+    from engine.elements.sills import level_sill
+
+    p = OpeningParams()
+    bottom = np.full(96, np.nan)
+    cols = np.arange(10, 94, 6)  # 14 columns
+    bottom[cols] = 0.115 + 0.004 * np.sin(cols)
+    bottom[40] = 0.02  # a stray, a floor point in its column
+    floor = np.zeros(96)
+    floor[40] = 1.0
+    assert level_sill(bottom, floor, p) == pytest.approx(0.115, abs=0.005)
+    floor[[61, 67, 73]] = 1.0  # the floor in 4 of 17 columns: not a stray
+    assert level_sill(bottom, floor, p) is None
+    door = np.full(16, np.nan)  # a doorway seen in 6 columns: 3 at the floor, 3 on a level (a box)
+    door[[1, 4, 7]], door[[9, 11, 13]] = 0.0, 0.12
+    assert level_sill(door, np.zeros(16), p) is None
+
+
 @pytest.mark.parametrize("rays", [True, False])
 def test_glazing_up_to_just_under_the_ceiling_is_a_window(rays):
     """A 2 m window from a 0.5 m sill to 6 cm under the ceiling (the Duplex's terrace glazing
