@@ -114,7 +114,7 @@ def test_duplex_party_wall_is_one_wall_without_openings(results, noise):
         assert r["windows"]["recall"] >= 19 / 24 and r["windows"]["precision"] >= 0.9, r["windows"]
     from engine.evaluation.elements import _in_truth_frame, _plan
 
-    from shapely.geometry import Point, Polygon
+    from shapely.geometry import Point
 
     mt = _in_truth_frame(m, sc.truth)
     # the party wall of level 2 (level 1's party walls are stair and closet walls)
