@@ -412,6 +412,18 @@ def _gap_rects(dd: _Data, p: OpeningParams, external: bool = False, hidden=None)
     return out, obs
 
 
+def _floor_under(dd: _Data, el: float, er: float, p: OpeningParams) -> bool:
+    """Whether the floor shows inside the wall's thickness between u ``el`` and ``er``
+    (metres) in more columns than a sill's top does: no wall stands under that stretch of the
+    hole. A window's sill is wall down to the floor; a floor point inside its thickness would
+    be a face point that the range noise pushed in, rarer than the sill's top beside it."""
+    c = p.cell
+    ia, ib = max(0, int(el / c)), max(0, int(math.ceil(er / c)))
+    cols = dd.bottom[ia:ib]
+    sill = int(np.count_nonzero(np.isfinite(cols) & (cols >= p.min_sill) & (dd.floor[ia:ib] == 0)))
+    return int(np.count_nonzero(dd.floor[ia:ib] > 0)) > sill
+
+
 def _inner_faces(obs, c0: int, c1: int, outer: list) -> list:
     """The faces (0 left, 1 right) observed over most of columns c0..c1, outer faces left out."""
     return [s for s in (0, 1) if s not in outer and obs[s][c0:c1].mean() > 0.5]
@@ -453,6 +465,9 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     et = z1 if ceil_reach else hole_edge(fz, fu, fin, zt - c, zt + srch, *across, False, tol, proud, dev, pz)
     et = zt + c if et is None else et
     eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, *across, True, tol, proud, dev, pz)
+    if (eb is None and side is None and not leafy and zb - z0 <= p.unseen_bottom
+            and _floor_under(dd, el, er, p)):
+        floor_reach, eb = True, z0  # a door's lower part unseen, the floor seen through its thickness
     eb = zb - c if eb is None else eb
     rnd = not (floor_reach or ceil_reach) and round_hole(fu, fz, fin, el, er, eb, et, tol, proud, dev, p)
     if rnd:
@@ -468,7 +483,9 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
         if len(seen) >= (p.min_sill_columns if low_hole else max(2, 0.5 * len(cols))):
             if float(np.median(seen)) >= p.min_sill:
                 floor_reach, eb = False, z0 + float(np.median(seen))
-        elif (sill := level_sill(cols, dd.floor[ia:ib], p)) is not None:  # a sparse scan's sill
+        elif (sill := level_sill(dd.bottom[ia + 1:ib - 1], dd.floor[ia + 1:ib - 1], p)) is not None:
+            # a sparse scan's sill, seen between the jambs (a jamb's column holds the jamb's
+            # lowest points, at any height: the Duplex's 0.86 m doors read a "sill" at 0.28 m)
             floor_reach, eb = False, z0 + sill
         elif ib - ia > 2 and float((dd.low_face[ia + 1:ib - 1] > 0).mean()) >= 0.6:
             # the sill's top unseen, its face seen right above the floor all along the hole

@@ -76,8 +76,17 @@ class OpeningParams:
     or more is a window with that sill, not a door, metres."""
     min_sill_columns: Count = 3
     """A floor-reaching gap lower than a door is a window when its sill's top is seen in
-    this many columns (a taller gap needs half its columns, or this many at one level and
-    the floor seen in none: :func:`engine.elements.sills.level_sill`), cells."""
+    this many columns (a taller gap needs half its columns, or ``level_sill_columns``),
+    cells."""
+    level_sill_columns: Count = 2
+    """A floor-reaching gap as tall as a door is a window when its sill's top is seen at one
+    level in this many of its inner columns (its jambs' columns left out) and the floor in
+    at most a tenth of those showing either (:func:`engine.elements.sills.level_sill`),
+    cells."""
+    unseen_bottom: Metres = 0.5
+    """A gap whose bottom edge is unseen (no points across the hole around it) within this of
+    the floor reaches the floor when the floor shows inside the wall's thickness under it and
+    no sill does (a door whose lower part the scan missed), metres."""
     sill_level: Metres = 0.03
     """The sill's top seen in a few columns of a tall gap is one level: within this of its
     median, metres."""

@@ -94,7 +94,7 @@ def level_sill(bottom: np.ndarray, floor: np.ndarray, p: OpeningParams):
     A sparse scan sees a 10 cm sill's top in a few columns of a tall window only (Duplex at
     100k points: 3 of 16, 15 of 96), too few for the half that the plain rule asks of a gap a
     door's height tall; a doorway shows the floor through its thickness wherever it shows
-    anything. So: ``min_sill_columns`` columns or more whose bottoms stand at one level
+    anything. So: ``level_sill_columns`` columns or more whose bottoms stand at one level
     (within ``sill_level``) ``min_sill`` or more above the floor — the top of a sill, not a
     box standing in a doorway — and the floor (a floor point, or a bottom under ``min_sill``)
     in at most a tenth of the columns showing either, as :func:`split_by_bottom` allows a
@@ -108,7 +108,7 @@ def level_sill(bottom: np.ndarray, floor: np.ndarray, p: OpeningParams):
         return None
     seen = bottom[high]
     level = float(np.median(seen))
-    if int(np.count_nonzero(np.abs(seen - level) <= p.sill_level)) < p.min_sill_columns:
+    if int(np.count_nonzero(np.abs(seen - level) <= p.sill_level)) < p.level_sill_columns:
         return None
     if int(np.count_nonzero(low)) > int(0.1 * int(np.count_nonzero(low | high))):
         return None
