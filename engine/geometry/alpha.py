@@ -17,7 +17,7 @@ from scipy.spatial import Delaunay, QhullError, cKDTree
 from ..threads import thread_cap
 
 __all__ = ["thin_grid", "local_alpha", "adaptive_alpha", "alpha_simplices", "alpha_triangles", "alpha_area",
-           "alpha_geometry", "triangle_areas"]
+           "clipped_area", "alpha_geometry", "triangle_areas"]
 
 _ANCHORS = ("zero", "min")
 _KEEPS = ("first", "last")
@@ -145,7 +145,12 @@ def alpha_area(xy: np.ndarray, r_alpha: float, clip: Optional[tuple] = None) -> 
     clipped to it (exactly, with shapely) when some corner lies outside. Fewer than three
     points: 0.
     """
-    t = alpha_triangles(xy, r_alpha)
+    return clipped_area(alpha_triangles(xy, r_alpha), clip)
+
+
+def clipped_area(t: np.ndarray, clip: Optional[tuple] = None) -> float:
+    """Area (m²) of triangles ``t`` ((k, 3, 2) metres) inside the ``clip`` box ``(lo (2,),
+    hi (2,))`` (exactly, with shapely, for those with a corner outside), or in all."""
     if len(t) == 0:
         return 0.0
     if clip is not None:

@@ -34,7 +34,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from ..geometry.alpha import adaptive_alpha, alpha_area, alpha_geometry, alpha_triangles, local_alpha
+from ..geometry.alpha import (adaptive_alpha, alpha_area, alpha_geometry, alpha_triangles, clipped_area,
+                              local_alpha)
 from ..geometry.alpha import thin_grid as thin_points
 from ..geometry.sort import stable_argsort
 from .params import CoverageParams
@@ -351,6 +352,126 @@ def _face_band(f: Face, zr: np.ndarray, ceiling_z: np.ndarray, band: float) -> t
     return max(z0, top - band), top
 
 
+def _face_line(f: Face):
+    """(angle in [0, π), offset, t0, t1) of a face standing on one straight footprint segment
+    (pieces under 0.1 mm aside), or None: the line's direction d at that angle, its normal
+    n = (-d_y, d_x), the offset n·p and the segment's extent along d."""
+    segs = [(p, q) for p, q in f.segments if np.linalg.norm(q - p) > 1e-4]  # snapping leaves µm pieces
+    if len(segs) != 1:
+        return None
+    p, q = segs[0]
+    d = (q - p) / np.linalg.norm(q - p)
+    ang = math.atan2(d[1], d[0]) % math.pi
+    if ang > math.pi - 1e-6:  # a horizontal line, whichever way it points
+        ang = 0.0
+    d = np.array([math.cos(ang), math.sin(ang)])
+    n = np.array([-d[1], d[0]])
+    t0, t1 = sorted((float(p @ d), float(q @ d)))
+    return ang, float(n @ p), t0, t1
+
+
+def _clusters(values: np.ndarray, tol: float) -> list:
+    """Indices of ``values`` grouped where sorted neighbours lie within ``tol``."""
+    if not len(values):
+        return []
+    o = np.argsort(values, kind="stable")
+    cut = np.flatnonzero(np.diff(values[o]) > tol) + 1
+    return np.split(o, cut)
+
+
+def _true_runs(mask: np.ndarray) -> tuple:
+    """Starts and stops of the runs of True in ``mask``."""
+    m = np.r_[False, np.asarray(mask, bool), False].astype(np.int8)
+    d = np.diff(m)
+    return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+
+
+def _collinear_runs(faces, angle_tol: float = 1e-3, offset_tol: float = 0.005, gap: float = 0.005) -> list:
+    """Runs of faces standing on one line end to end: lists of face indices in order along
+    it (single faces left out)."""
+    fis, lines = [], []
+    for fi, f in enumerate(faces):
+        ln = _face_line(f)
+        if ln is not None:
+            fis.append(fi)
+            lines.append(ln)
+    if not lines:
+        return []
+    fis, L = np.asarray(fis), np.asarray(lines)
+    runs = []
+    for a in _clusters(L[:, 0], angle_tol):
+        for b in _clusters(L[a, 1], offset_tol):
+            idx = a[b][np.argsort(L[a[b], 2], kind="stable")]
+            cur, end = [int(fis[idx[0]])], L[idx[0], 3]
+            for k in idx[1:]:
+                if L[k, 2] <= end + gap:
+                    cur.append(int(fis[k]))
+                    end = max(end, L[k, 3])
+                else:
+                    runs.append(cur)
+                    cur, end = [int(fis[k])], L[k, 3]
+            runs.append(cur)
+    return [r for r in runs if len(r) > 1]
+
+
+def _run_seen(cells: CellSet, vw: np.ndarray, tree, seen: np.ndarray, touched: np.ndarray, zr: np.ndarray,
+              ceiling_z: np.ndarray, params: CoverageParams, r_alpha: float) -> np.ndarray:
+    """(n_faces,) bool: pieces shorter than an alpha disc (2 r_α) covered
+    ``min_wall_coverage`` by the alpha shape of the points of their chain — collinear faces
+    end to end (one wall line, cut into pieces by the other lines of the arrangement), each
+    seen or holding wall points in its band (``touched``), one seen on its own (the line is a
+    seen wall). The chain's alpha shape joins the scan columns across the pieces' ends; a
+    short piece measured on its own has the one or two columns that cross it, whose alpha
+    shape has no area: the end of a partition where it meets a slanted wall (two 15 cm
+    pieces, a column of points on each) read unseen, the ceiling's alpha shape bridged the
+    wall there, and the rooms either side were one (syn_house, terrestrial at 100k points,
+    seed 21). A piece without points breaks the chain: a doorway up to the ceiling, or the
+    line running on past its wall."""
+    out = np.zeros(len(cells.faces), dtype=bool)
+    if tree is None:
+        return out
+    chains = []
+    for run in _collinear_runs(cells.faces):
+        ok = seen[run] | touched[run]
+        for a, b in zip(*_true_runs(ok)):
+            if b - a > 1 and seen[run[a:b]].any() and not seen[run[a:b]].all():
+                chains.append(run[a:b])
+    for run in chains:
+        ang, rho = _face_line(cells.faces[run[0]])[:2]
+        d = np.array([math.cos(ang), math.sin(ang)])
+        n = np.array([-d[1], d[0]])
+        tz, boxes = [], []
+        for fi in run:
+            f = cells.faces[fi]
+            _, _, t0, t1 = _face_line(f)
+            z0, z1 = _face_band(f, zr, ceiling_z, params.wall_band)
+            boxes.append((t0, t1, z0, z1, params.min_wall_coverage * (t1 - t0) * (z1 - z0)))
+            mid = n * rho + d * (t0 + t1) / 2
+            cand = tree.query_ball_point(mid, (t1 - t0) / 2 + params.shape_buffer)
+            if not cand:
+                continue
+            c = vw[cand]
+            t, v = c[:, :2] @ d, c[:, :2] @ n - rho
+            sel = ((np.abs(v) <= params.shape_buffer) & (t >= t0) & (t <= t1)
+                   & (c[:, 2] >= z0) & (c[:, 2] <= z1))
+            tz.append(np.column_stack([t[sel], c[sel, 2]]))
+        pts = np.vstack(tz) if tz else np.zeros((0, 2))
+        if len(pts) < 3:
+            continue
+        # across the pieces' ends, each piece's share of it; the plain r_α (not the one the
+        # sparse ceiling's spacing widens) spans the gap between scan columns, not between two
+        # walls crossing the line a room apart (hexagon_hall, terrestrial seed 7: a 0.9 m
+        # stretch of a line through a side room's corner, one wall at each end, closed the
+        # ceiling there)
+        tri = alpha_triangles(pts, min(r_alpha, params.r_alpha))
+        for fi, (t0, t1, z0, z1, nd) in zip(run, boxes):
+            # only a piece shorter than an alpha disc: a longer one holds its own columns, and
+            # a wall crossing the line at a shallow angle leaves points near it over a stretch
+            # (syn_house mobile seed 19: 0.4 m of a slanted wall by a line's 2.5 m piece)
+            out[fi] = t1 - t0 <= 2 * params.r_alpha and clipped_area(tri, ((t0, z0), (t1, z1))) >= nd
+    return out
+
+
 def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.ndarray,
                      params: CoverageParams = CoverageParams(), *, should_check=None,
                      xyz_level=None) -> CellCoverage:
@@ -400,6 +521,7 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
 
     # --- faces: wall points within δ of the face's footprint segment
     face = np.zeros(len(cells.faces))
+    touched = np.zeros(len(cells.faces), dtype=bool)  # wall points within δ of the face, in its band
     tree = cKDTree(vw[:, :2]) if len(vw) else None
     for fi, f in enumerate(cells.faces):
         if should_check is not None and fi % 64 == 0:
@@ -422,6 +544,7 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
             t = rel @ u
             dist = np.abs(rel @ np.array([-u[1], u[0]]))
             sel = (dist <= shape_buffer) & (t >= 0) & (t <= L) & (c[:, 2] >= z0) & (c[:, 2] <= z1)
+            touched[fi] |= bool(sel.any())
             if sel.sum() < 3:
                 continue
             tz = np.column_stack([t[sel], c[sel, 2]])
@@ -430,8 +553,10 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
     total_v = float(face.sum())
 
     # faces seen as walls block the ceiling's alpha shape: no triangle may bridge a wall
-    seen = [fi for fi, f in enumerate(cells.faces)
-            if face[fi] >= min_wall_coverage * f.length * np.diff(_face_band(f, zr, ceiling_z, wall_band))[0]]
+    need = np.array([min_wall_coverage * f.length * np.diff(_face_band(f, zr, ceiling_z, wall_band))[0]
+                     for f in cells.faces])
+    seen = np.flatnonzero((face >= need) | _run_seen(cells, vw, tree, face >= need, touched, zr, ceiling_z,
+                                                      params, r_alpha)).tolist()
     blockers = [s for fi in seen for s in cells.faces[fi].segments]
     seen_mask = np.zeros(len(cells.faces), dtype=bool)
     seen_mask[seen] = True
