@@ -45,10 +45,16 @@ def split_by_bottom(dd, rect, p: OpeningParams) -> list:
     bottom, floor = dd.bottom[a:b], dd.floor[a:b]
     low = (floor > 0) | (np.isfinite(bottom) & (bottom < p.min_sill))
     high = np.isfinite(bottom) & (bottom >= p.min_sill) & (floor == 0)
-    known = np.flatnonzero(low | high)
-    if len(known) < 4 or not low.any() or not high.any():
+    level = high.copy()
+    if high.any():  # a sill's top is one level: a column's bottom off it is a jamb's or a mullion's
+        # lowest points, no stray under the sill (the Duplex's terrace door beside its glazing,
+        # terrestrial without positions: the door's jamb column at 0.31 m past its two floor
+        # columns was a wrong side of the cut, one too many, the sill at 0.113 m ± 4 mm)
+        level &= np.abs(bottom - float(np.median(bottom[high]))) <= p.sill_level
+    known = np.flatnonzero(low | level)
+    if len(known) < 4 or not low.any() or not level.any():
         return [rect]
-    seq = high[known]  # labels in column order: one change from floor to sill (or back)
+    seq = level[known]  # labels in column order: one change from floor to sill (or back)
     # the best single cut (fewest columns on the wrong side of it): a stray column (a point
     # under a sill, the floor seen through a window's frame) does not undo the split, while
     # more than a tenth of them wrong says there is no one cut (Duplex TLS without positions:
@@ -61,7 +67,13 @@ def split_by_bottom(dd, rect, p: OpeningParams) -> list:
     if wrong[i] > int(0.1 * len(seq)):
         return [rect]
     sill_first = bool(low_first[i] > len(seq) - low_first[i])
-    k = a + int(known[i] + known[i + 1] + 1) // 2  # the cut, between the last of one and the first of the other
+    # the cut, between the last of one and the first of the other, a column above the floor
+    # (a mullion's, a jamb's) standing between them on the window's side
+    e0, e1 = int(known[i]), int(known[i + 1])
+    inner = e0 + 1 + np.flatnonzero(high[e0 + 1:e1])
+    if len(inner):
+        e0, e1 = (int(inner.max()), e1) if sill_first else (e0, int(inner.min()))
+    k = a + (e0 + e1 + 1) // 2
     lows, highs = a + np.flatnonzero(low), a + np.flatnonzero(high)
     # each stretch spans a door's (a window's) width of its columns, or, seen in two columns
     # or more, its side of the cut does (a terrestrial scan at 100k points sees the floor

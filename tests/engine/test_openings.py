@@ -1350,3 +1350,27 @@ def test_the_gap_after_a_face_stops_where_rays_pass_or_the_hole_shows():
     shallow = hole_edge(coord, other, inside, 1.65, 2.25, 0.95, 1.95, True, 0.015, None,
                         np.r_[np.zeros(24), 0.02, 0.03])
     assert abs(shallow - alone) <= 0.001
+
+
+def test_a_jamb_s_lowest_points_beside_a_door_do_not_undo_its_cut_from_the_glazing():
+    """The Duplex's terrace door beside its 4.8 m glazing (terrestrial, 100k points, no
+    scanner positions), as ``split_by_bottom`` saw it: the glazing's 10 cm sill in 14
+    columns, the floor in two of the door's, and past them the door's jamb, whose column's
+    lowest points stand at 0.09 and 0.31 m. Taken for sill, they were the cut's wrong side and
+    the hole stayed one 5.7 m opening. A sill's top is one level: a bottom off it is no sill."""
+    from types import SimpleNamespace
+
+    from engine.elements.sills import split_by_bottom
+
+    p = OpeningParams()
+    n = 130
+    bottom, floor = np.full(n, np.nan), np.zeros(n)
+    cols = [7, 25, 41, 44, 55, 58, 61, 64, 67, 92, 95, 98, 101]
+    bottom[cols] = [0.113, 0.114, 0.111, 0.115, 0.113, 0.112, 0.117, 0.114, 0.114, 0.114, 0.113, 0.11, 0.113]
+    bottom[[6, 102, 120, 121]] = [0.389, 0.259, 0.091, 0.308]  # jambs and the mullion
+    bottom[[109, 112]], floor[[109, 112]] = [-0.022, -0.017], 1.0
+    parts = split_by_bottom(SimpleNamespace(bottom=bottom, floor=floor), (6, 121, 2, 50), p)
+    assert len(parts) == 2, parts
+    (a0, a1, ar0, _), (b0, b1, br0, _) = parts
+    assert a0 == 6 and b1 == 121 and 102 <= a1 == b0 <= 109, parts  # glazing, then the door
+    assert br0 <= math.ceil(p.edge_band / p.cell), parts  # the door's part reaches the floor
