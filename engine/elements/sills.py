@@ -52,7 +52,11 @@ def split_by_bottom(dd, rect, p: OpeningParams) -> list:
         # columns was a wrong side of the cut, one too many, the sill at 0.113 m ± 4 mm)
         level &= np.abs(bottom - float(np.median(bottom[high]))) <= p.sill_level
     known = np.flatnonzero(low | level)
-    if len(known) < 4 or not low.any() or not level.any():
+    if (len(known) < 4 or not low.any() or level.sum() < p.min_sill_columns
+            or 2 * level.sum() < high.sum()):
+        # (a sill's top in fewer columns, or most columns above the floor at no one level: a
+        # jamb's and a ramp's lowest points; office_mw terrestrial seed 14 at 100k points: a
+        # door's left jamb, two columns at 0.11-0.13 m, cut a 0.3 m "window" off it)
         return [rect]
     seq = level[known]  # labels in column order: one change from floor to sill (or back)
     # the best single cut (fewest columns on the wrong side of it): a stray column (a point

@@ -1374,3 +1374,20 @@ def test_a_jamb_s_lowest_points_beside_a_door_do_not_undo_its_cut_from_the_glazi
     (a0, a1, ar0, _), (b0, b1, br0, _) = parts
     assert a0 == 6 and b1 == 121 and 102 <= a1 == b0 <= 109, parts  # glazing, then the door
     assert br0 <= math.ceil(p.edge_band / p.cell), parts  # the door's part reaches the floor
+
+
+def test_a_door_s_jamb_columns_are_no_sill_to_cut_a_window_off():
+    """office_mw, terrestrial, 100k points, seed 14, as ``split_by_bottom`` saw a doorway:
+    the floor inside the thickness across it, and above the floor only the jambs' columns
+    (0.126 and 0.107 m on the left, 0.161 m on the right). Counted as a sill at one level, the
+    left jamb's two columns cut a 0.3 m "window" off the door and the door was lost. A sill
+    shows in ``min_sill_columns`` columns at one level, most of those above the floor."""
+    from types import SimpleNamespace
+
+    from engine.elements.sills import split_by_bottom
+
+    p = OpeningParams()
+    bottom, floor = np.full(90, np.nan), np.zeros(90)
+    bottom[[59, 62, 65, 68, 71, 74, 75]] = [0.126, 0.107, 0.08, 0.058, 0.057, 0.026, 0.161]
+    floor[[65, 68, 71, 74]] = 1.0
+    assert split_by_bottom(SimpleNamespace(bottom=bottom, floor=floor), (61, 72, 2, 38), p) == [(61, 72, 2, 38)]
