@@ -352,14 +352,42 @@ def _face_band(f: Face, zr: np.ndarray, ceiling_z: np.ndarray, band: float) -> t
     return max(z0, top - band), top
 
 
+def _near_segment(vw: np.ndarray, tree, p: np.ndarray, q: np.ndarray, z0: float, z1: float,
+                  buffer: float) -> tuple:
+    """Wall points ``vw`` (``tree`` over their x, y) within ``buffer`` of the footprint segment
+    p–q and between z0 and z1: their distance along it from p and their z (metres)."""
+    d = q - p
+    L = float(np.linalg.norm(d))
+    empty = (np.zeros(0), np.zeros(0))
+    if L <= 0:
+        return empty
+    u = d / L
+    cand = tree.query_ball_point((p + q) / 2, L / 2 + buffer)
+    if not cand:
+        return empty
+    c = vw[cand]
+    rel = c[:, :2] - p
+    t = rel @ u
+    dist = np.abs(rel @ np.array([-u[1], u[0]]))
+    sel = (dist <= buffer) & (t >= 0) & (t <= L) & (c[:, 2] >= z0) & (c[:, 2] <= z1)
+    return t[sel], c[sel, 2]
+
+
+def _straight(f: Face):
+    """The one straight footprint segment (p, q) a face stands on (pieces under 0.1 mm aside:
+    snapping leaves µm pieces), or None."""
+    segs = [(p, q) for p, q in f.segments if np.linalg.norm(q - p) > 1e-4]
+    return segs[0] if len(segs) == 1 else None
+
+
 def _face_line(f: Face):
     """(angle in [0, π), offset, t0, t1) of a face standing on one straight footprint segment
-    (pieces under 0.1 mm aside), or None: the line's direction d at that angle, its normal
+    (:func:`_straight`), or None: the line's direction d at that angle, its normal
     n = (-d_y, d_x), the offset n·p and the segment's extent along d."""
-    segs = [(p, q) for p, q in f.segments if np.linalg.norm(q - p) > 1e-4]  # snapping leaves µm pieces
-    if len(segs) != 1:
+    seg = _straight(f)
+    if seg is None:
         return None
-    p, q = segs[0]
+    p, q = seg
     d = (q - p) / np.linalg.norm(q - p)
     ang = math.atan2(d[1], d[0]) % math.pi
     if ang > math.pi - 1e-6:  # a horizontal line, whichever way it points
@@ -437,24 +465,17 @@ def _run_seen(cells: CellSet, vw: np.ndarray, tree, seen: np.ndarray, touched: n
             if b - a > 1 and seen[run[a:b]].any() and not seen[run[a:b]].all():
                 chains.append(run[a:b])
     for run in chains:
-        ang, rho = _face_line(cells.faces[run[0]])[:2]
+        ang = _face_line(cells.faces[run[0]])[0]
         d = np.array([math.cos(ang), math.sin(ang)])
-        n = np.array([-d[1], d[0]])
         tz, boxes = [], []
         for fi in run:
             f = cells.faces[fi]
             _, _, t0, t1 = _face_line(f)
             z0, z1 = _face_band(f, zr, ceiling_z, params.wall_band)
             boxes.append((t0, t1, z0, z1, params.min_wall_coverage * (t1 - t0) * (z1 - z0)))
-            mid = n * rho + d * (t0 + t1) / 2
-            cand = tree.query_ball_point(mid, (t1 - t0) / 2 + params.shape_buffer)
-            if not cand:
-                continue
-            c = vw[cand]
-            t, v = c[:, :2] @ d, c[:, :2] @ n - rho
-            sel = ((np.abs(v) <= params.shape_buffer) & (t >= t0) & (t <= t1)
-                   & (c[:, 2] >= z0) & (c[:, 2] <= z1))
-            tz.append(np.column_stack([t[sel], c[sel, 2]]))
+            p, q = _straight(f)
+            t, z = _near_segment(vw, tree, p, q, z0, z1, params.shape_buffer)
+            tz.append(np.column_stack([p @ d + np.sign((q - p) @ d) * t, z]))  # along d
         pts = np.vstack(tz) if tz else np.zeros((0, 2))
         if len(pts) < 3:
             continue
@@ -531,23 +552,12 @@ def measure_coverage(cells: CellSet, xyz_wall: np.ndarray, xyz_horizontal: np.nd
         z0, z1 = _face_band(f, zr, ceiling_z, wall_band)
         tot = 0.0
         for p, q in f.segments:
-            d = q - p
-            L = float(np.linalg.norm(d))
-            if L <= 0:
+            t, z = _near_segment(vw, tree, p, q, z0, z1, shape_buffer)
+            touched[fi] |= bool(len(t))
+            if len(t) < 3:
                 continue
-            u = d / L
-            cand = tree.query_ball_point((p + q) / 2, L / 2 + shape_buffer)
-            if not cand:
-                continue
-            c = vw[cand]
-            rel = c[:, :2] - p
-            t = rel @ u
-            dist = np.abs(rel @ np.array([-u[1], u[0]]))
-            sel = (dist <= shape_buffer) & (t >= 0) & (t <= L) & (c[:, 2] >= z0) & (c[:, 2] <= z1)
-            touched[fi] |= bool(sel.any())
-            if sel.sum() < 3:
-                continue
-            tz = np.column_stack([t[sel], c[sel, 2]])
+            L = float(np.linalg.norm(q - p))
+            tz = np.column_stack([t, z])
             tot += alpha_area(tz, r_alpha, clip=((0.0, z0), (L, z1)))
         face[fi] = tot
     total_v = float(face.sum())
