@@ -44,7 +44,7 @@ from .junctions import abutting, clear_of, hidden_columns
 from .leaves import flush_leaves
 from .overlap import admit, overlap
 from .params import OpeningParams
-from .sills import level_sill, low_quantile, split_by_bottom
+from .sills import floor_under, level_sill, low_quantile, meet, split_by_bottom
 from .viewpoints import group_members
 
 __all__ = ["OpeningParams", "detect_openings"]
@@ -412,18 +412,6 @@ def _gap_rects(dd: _Data, p: OpeningParams, external: bool = False, hidden=None)
     return out, obs
 
 
-def _floor_under(dd: _Data, el: float, er: float, p: OpeningParams) -> bool:
-    """Whether the floor shows inside the wall's thickness between u ``el`` and ``er``
-    (metres) in more columns than a sill's top does: no wall stands under that stretch of the
-    hole. A window's sill is wall down to the floor; a floor point inside its thickness would
-    be a face point that the range noise pushed in, rarer than the sill's top beside it."""
-    c = p.cell
-    ia, ib = max(0, int(el / c)), max(0, int(math.ceil(er / c)))
-    cols = dd.bottom[ia:ib]
-    sill = int(np.count_nonzero(np.isfinite(cols) & (cols >= p.min_sill) & (dd.floor[ia:ib] == 0)))
-    return int(np.count_nonzero(dd.floor[ia:ib] > 0)) > sill
-
-
 def _inner_faces(obs, c0: int, c1: int, outer: list) -> list:
     """The faces (0 left, 1 right) observed over most of columns c0..c1, outer faces left out."""
     return [s for s in (0, 1) if s not in outer and obs[s][c0:c1].mean() > 0.5]
@@ -466,7 +454,7 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     et = zt + c if et is None else et
     eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, *across, True, tol, proud, dev, pz)
     if (eb is None and side is None and not leafy and zb - z0 <= p.unseen_bottom
-            and _floor_under(dd, el, er, p)):
+            and floor_under(dd, el, er, p)):
         floor_reach, eb = True, z0  # a door's lower part unseen, the floor seen through its thickness
     eb = zb - c if eb is None else eb
     rnd = not (floor_reach or ceil_reach) and round_hole(fu, fz, fin, el, er, eb, et, tol, proud, dev, p)
@@ -774,13 +762,11 @@ def detect_openings(walls: Sequence[Shape], storeys: Sequence[Storey], xyz: np.n
         dd.hidden = hid[0] | hid[1]
         found: list[dict] = []
         for rect, mode in sorted(rects, key=lambda r: r[1] != "both"):
-            parts = split_by_bottom(dd, rect, p) if mode == "both" else [rect]
+            bounds: list = []
+            parts = split_by_bottom(dd, rect, p, bounds) if mode == "both" else [rect]
             judged = [_judge(w, dd, part, mode, obs, tol, p) for part in parts]
-            if len(parts) == 2 and all(judged):  # no face between them: they meet at the cut
-                cut = parts[0][1] * p.cell
-                for o, side in zip(judged, ("u1", "u0")):
-                    o[side] = min(o["u1"], cut) if side == "u1" else max(o["u0"], cut)
-                    o["width"] = o["u1"] - o["u0"]
+            if len(parts) == 2 and all(judged):  # no face between them: they meet
+                meet(*judged, *bounds[0], parts[0][1] * p.cell)
             for o in judged:
                 found = admit(found, o, p.abut, p.abut_share)
         for o in flush_leaves(dd.fu, dd.fz, dd.fcls, dd.fdev, w.sides, w.length, w.floor_z, w.ceiling_z, tol, p):

@@ -4,12 +4,13 @@ door and to cut a door standing beside a window in one hole."""
 from __future__ import annotations
 
 import math
+from typing import Optional
 
 import numpy as np
 
 from .params import OpeningParams
 
-__all__ = ["low_quantile", "split_by_bottom", "level_sill"]
+__all__ = ["meet", "floor_under", "low_quantile", "split_by_bottom", "level_sill"]
 
 
 def low_quantile(col: np.ndarray, h: np.ndarray, mask: np.ndarray, n: int, q: float = 0.2) -> np.ndarray:
@@ -27,7 +28,7 @@ def low_quantile(col: np.ndarray, h: np.ndarray, mask: np.ndarray, n: int, q: fl
     return out
 
 
-def split_by_bottom(dd, rect, p: OpeningParams) -> list:
+def split_by_bottom(dd, rect, p: OpeningParams, bounds: Optional[list] = None) -> list:
     """A gap (``rect``: columns c0..c1, rows r0..r1 of a wall's rasters ``dd``) whose bottom
     is the floor over one stretch and a sill over the next (a door beside a window, one hole
     between their frames) → the two rectangles, the door's reaching down to the floor rows;
@@ -35,7 +36,9 @@ def split_by_bottom(dd, rect, p: OpeningParams) -> list:
     ``edge_search`` beyond, where its edges are measured) are told by what lies under the
     hole inside the thickness (``bottom``, floor points); each stretch must span a door's or
     a window's width of such columns, one stretch each. The parts come in order along the
-    wall."""
+    wall. ``bounds`` (a list): on a cut, (end of the first stretch's last column, start of
+    the second's first column) in metres along the wall is appended: the columns between
+    them show neither (a pier between the door and the window, unseen under them)."""
     c0, c1, r0, r1 = rect
     c = p.cell
     if r0 * c > 2.5 * p.floor_tolerance or r1 * c < p.min_door_height:  # no door's height down to near the floor
@@ -96,6 +99,8 @@ def split_by_bottom(dd, rect, p: OpeningParams) -> list:
         return [rect]
     r_floor = int(math.ceil(p.edge_band / c))
     left, right = (c0, k, r0, r1), (k, c1, r0, r1)  # in order along the wall
+    if bounds is not None:
+        bounds.append(((a + e0 + 1) * c, (a + e1) * c))
     if sill_first:  # the door is on the right
         return [left, (k, c1, min(r0, r_floor), r1)]
     return [(c0, k, min(r0, r_floor), r1), right]
@@ -129,3 +134,40 @@ def level_sill(bottom: np.ndarray, floor: np.ndarray, p: OpeningParams):
     if int(np.count_nonzero(low)) > int(0.1 * int(np.count_nonzero(low | high))):
         return None
     return level
+
+
+def floor_under(dd, el: float, er: float, p: OpeningParams) -> bool:
+    """Whether the floor shows inside the wall's thickness between u ``el`` and ``er``
+    (metres) in more columns than a sill's top does: no wall stands under that stretch of the
+    hole. A window's sill is wall down to the floor; a floor point inside its thickness would
+    be a face point that the range noise pushed in, rarer than the sill's top beside it."""
+    c = p.cell
+    ia, ib = max(0, int(el / c)), max(0, int(math.ceil(er / c)))
+    cols = dd.bottom[ia:ib]
+    sill = int(np.count_nonzero(np.isfinite(cols) & (cols >= p.min_sill) & (dd.floor[ia:ib] == 0)))
+    return int(np.count_nonzero(dd.floor[ia:ib] > 0)) > sill
+
+
+def meet(first: dict, second: dict, lo: float, hi: float, cut: float) -> None:
+    """Set the facing edges (``u1`` of ``first``, ``u0`` of ``second``, metres; and their
+    widths) of the two parts of a hole that :func:`split_by_bottom` cut at ``cut``, in order
+    along the wall. [``lo``, ``hi``] is the stretch between them whose columns show neither a
+    sill nor the floor: an edge measured in it is a jamb of its own there (the Duplex's
+    terrace doors stand 10 cm beside their glazing, the pier between them unseen under the
+    hole: the door, cut halfway across that stretch, was 6.5 cm narrow); one measured past it
+    ran on into the other part, and stops at the cut. Where the two still overlap, the door's
+    edge stands and the window's stops at it (the window's edge search starts at the cut, its
+    jamb may lie before it); two of a kind meet at the cut."""
+    for o, key in ((first, "u1"), (second, "u0")):
+        if not lo - 1e-9 <= o[key] <= hi + 1e-9:
+            o[key] = min(o[key], cut) if key == "u1" else max(o[key], cut)
+    if first["u1"] > second["u0"]:
+        win = [o["kind"] == "window" for o in (first, second)]
+        if win == [True, False]:
+            first["u1"] = second["u0"]
+        elif win == [False, True]:
+            second["u0"] = first["u1"]
+        else:
+            first["u1"], second["u0"] = min(first["u1"], cut), max(second["u0"], cut)
+    for o in (first, second):
+        o["width"] = o["u1"] - o["u0"]

@@ -1391,3 +1391,45 @@ def test_a_door_s_jamb_columns_are_no_sill_to_cut_a_window_off():
     bottom[[59, 62, 65, 68, 71, 74, 75]] = [0.126, 0.107, 0.08, 0.058, 0.057, 0.026, 0.161]
     floor[[65, 68, 71, 74]] = 1.0
     assert split_by_bottom(SimpleNamespace(bottom=bottom, floor=floor), (61, 72, 2, 38), p) == [(61, 72, 2, 38)]
+
+
+def test_a_door_cut_from_its_glazing_keeps_the_jamb_it_was_measured_to():
+    """The Duplex's terrace door, 10 cm of pier beside its 4.8 m glazing (terrestrial, 100k
+    points, seed 9), as the cut left it: the door measured from 5.229 m (its own jamb) to
+    6.048, the glazing's edge search, starting at the cut, past it to 5.35, and the columns
+    between 5.15 and 5.5 showing neither the sill nor the floor (the pier, unseen under the
+    hole). Both were stopped at the cut (5.3), halfway across that stretch: the door read
+    0.748 m for 0.813. An edge measured inside the stretch stands; the glazing stops at the
+    door's jamb; an edge measured past the stretch still stops at the cut."""
+    from engine.elements.sills import meet
+
+    window = {"u0": 0.331, "u1": 5.35, "kind": "window"}
+    door = {"u0": 5.229, "u1": 6.048, "kind": "opening"}
+    meet(window, door, 5.15, 5.5, 5.3)
+    assert door["u0"] == pytest.approx(5.229) and window["u1"] == pytest.approx(5.229)
+    assert door["width"] == pytest.approx(6.048 - 5.229)
+    window = {"u0": 0.331, "u1": 5.35, "kind": "window"}
+    door = {"u0": 4.9, "u1": 6.048, "kind": "door"}  # measured to the glazing's far side
+    meet(window, door, 5.15, 5.5, 5.3)
+    assert door["u0"] == pytest.approx(5.3) and window["u1"] == pytest.approx(5.3)
+    a, b = {"u0": 0.0, "u1": 5.4, "kind": "window"}, {"u0": 5.2, "u1": 6.0, "kind": "window"}
+    meet(a, b, 5.15, 5.5, 5.3)  # two of a kind overlapping: they meet at the cut
+    assert a["u1"] == pytest.approx(5.3) and b["u0"] == pytest.approx(5.3)
+
+
+def test_a_sparse_pier_between_a_door_and_its_glazing_bounds_the_door():
+    """The Duplex's terrace door on a mobile scan at 100k points (seed 7): left of it a 10 cm
+    pier, then the glazing's jamb, a plane of 16 points at 5.105 m. The pier's face showed in
+    five points 2-8 cm past that plane, two to four of them within the noise allowance
+    (6.3 cm); nothing behind the plane (the glazing's hole). Six points past the allowance
+    were asked for: the door was measured to the glazing's jamb, 13 cm wide. With no face at
+    all behind the plane, four past it bound the door; a jamb with the wall's face behind it
+    is still a jamb."""
+    from engine.elements.gaps import _pier
+
+    face = np.array([5.125, 5.135, 5.145, 5.155, 5.19])
+    z = np.array([1.2, 0.2, 1.3, 0.5, 1.1])
+    assert _pier(face, z, 5.105, True, 0.063, 0.59) == pytest.approx(5.19)
+    behind = np.r_[face, 4.95, 5.0]  # the wall's face behind the plane: a jamb, its spill past it
+    assert _pier(behind, np.r_[z, 0.8, 1.6], 5.105, True, 0.063, 0.59) is None
+    assert _pier(face[:3], z[:3], 5.105, True, 0.063, 0.59) is None  # three points: too few
