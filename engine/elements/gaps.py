@@ -13,7 +13,7 @@ from scipy import ndimage
 
 from .params import OpeningParams
 
-__all__ = ["banded", "hole_deficit", "leaf_needed", "box_sum", "face_present", "mask_runs",
+__all__ = ["banded", "head_across", "hole_deficit", "leaf_needed", "box_sum", "face_present", "mask_runs",
            "observed_columns", "gap_rectangles", "hole_edge", "near_points", "on_solid"]
 
 
@@ -287,6 +287,16 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
     if len(cs) < 2:
         return end
     return min(end, cs[1]) if take_max else max(end, cs[1])
+
+
+def head_across(fu, fz, et: Optional[float], el: float, er: float, across: tuple, c: float) -> bool:
+    """Whether the head measured at ``et`` over a hole from ``el`` to ``er`` (metres) shows
+    points (face and reveal, ``fu``, ``fz``) within two cells of it away from the jambs: more
+    than 15 cm in from both sides, within ``across``."""
+    if et is None:
+        return False
+    near = (np.abs(fz - et) <= 2 * c) & (fu >= across[0]) & (fu <= across[1])
+    return bool((near & (fu > el + 0.15) & (fu < er - 0.15)).any())
 
 
 def round_hole(fu, fz, fin, el: float, er: float, eb: float, et: float, tol: float, proud, dev,

@@ -37,8 +37,8 @@ from ..errors import InputError
 from ..geometry.boxes import column_max, column_min, min_area_box
 from ..geometry.sort import stable_argsort
 from ..model import Polyhedron, Shape, ShapeType, Storey
-from .gaps import (banded, box_sum, face_present, gap_rectangles, hole_deficit, hole_edge, leaf_columns,
-                   leaf_needed, leaf_to_floor, near_points, observed_columns, on_solid, round_hole)
+from .gaps import (banded, box_sum, face_present, gap_rectangles, head_across, hole_deficit, hole_edge,
+                   leaf_columns, leaf_needed, leaf_to_floor, near_points, observed_columns, on_solid, round_hole)
 from .inputs import checked
 from .junctions import abutting, clear_of, hidden_columns
 from .leaves import flush_leaves
@@ -451,6 +451,7 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     across = (el + 0.05, er - 0.05)
     pz = cr[(cr[:, 0] >= across[0]) & (cr[:, 0] <= across[1]), 1]
     et = z1 if ceil_reach else hole_edge(fz, fu, fin, zt - c, zt + srch, *across, False, tol, proud, dev, pz)
+    head_seen = et is not None
     et = zt + c if et is None else et
     eb = z0 if floor_reach else hole_edge(fz, fu, fin, zb - srch, zb + c, *across, True, tol, proud, dev, pz)
     if (eb is None and side is None and not leafy and zb - z0 <= p.unseen_bottom
@@ -479,6 +480,16 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
             # the sill's top unseen, its face seen right above the floor all along the hole
             top = hole_edge(fz, fu, fin, z0, zb + c, el + 0.05, er - 0.05, True)
             floor_reach, eb = False, max(z0 + p.min_sill, zb - c if top is None else top)
+    if floor_reach and not ceil_reach and side is None and not leafy and et - z0 < p.min_door_height \
+            and not head_across(fu, fz, et if head_seen else None, el, er, across, c):
+        # too low for a door, with no point over the gap up to the search's end but the jambs'
+        # own: a sparse face's kernel closed it from those, and the head is the first face
+        # above them, away from the jambs (the Duplex's terrace doors on mobile scans at 100k
+        # points: the gap's top at 1.0 m, where the jamb and the pier beside it showed points)
+        mid = (max(across[0], el + 0.15), min(across[1], er - 0.15))
+        lo = (et if head_seen else zt) + c
+        top = hole_edge(fz, fu, fin, lo, z1, *mid, False, tol, proud, dev, pz) if mid[1] > mid[0] else None
+        et = et if top is None else top
     if floor_reach:
         if not p.min_door_width <= width <= p.max_opening_width:
             return None
