@@ -442,6 +442,13 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
     bl, br = abutting(dd.hidden, c0, c1, c, 0.5 + srch)
     el = hole_edge(fu, fz, fin, ul - srch, ul + c, zlo, zhi, True, tol, proud, dev, pu, bl)
     er = hole_edge(fu, fz, fin, ur - c, ur + srch, zlo, zhi, False, tol, proud, dev, pu, br)
+    if floor_reach and side is None:  # a doorway's gap run out to the wall's end: a stub past
+        # its jamb unseen against the wall met there, the jamb inside the gap (the Duplex's
+        # 0.86 m hallway doors 10 cm from a junction: 10 cm too wide, their reveal seen)
+        if el is None and ul - c <= 0.0:
+            el = hole_edge(fu, fz, fin, ul - c, ul + srch, zlo, zhi, True, tol, proud, dev, pu, bl)
+        if er is None and ur + c >= w.length:
+            er = hole_edge(fu, fz, fin, ur - srch, ur + c, zlo, zhi, False, tol, proud, dev, pu, br)
     el = max(ul - c if el is None else max(el, ul - srch), 0.0)  # not past the run's ends
     er = min(ur + c if er is None else min(er, ur + srch), w.length)
     if dd.hidden is not None:  # ... nor into a wall standing against a face

@@ -773,3 +773,20 @@ def test_a_doorway_whose_upper_part_a_sparse_face_s_kernel_closed_is_a_door(resu
     sc, m, r = _run(results, "duplex", "mobile", 5, points=100_000)
     assert _matched(sc, r, "doors", 5.76, -17.59), r["doors"]
 
+
+@pytest.mark.slow
+def test_a_door_10_cm_from_its_wall_run_s_end_is_measured_to_its_jamb(results):
+    """The Duplex, terrestrial, 100k points, seed 11: an upstairs hallway door (0.864 m) stands
+    10 cm from where its partition meets another wall. That stub's face was not seen, so the
+    gap ran out to the wall run's end, and the jamb was looked for beyond it only: the door
+    read 0.996 m, to the run's end. Its reveal, 20 points inside the thickness, lies inside
+    the gap: looked for there when the gap reaches the run's end, the door is within 5 cm."""
+    from engine.evaluation.elements import _in_truth_frame, _opening_width
+
+    sc, m, r = _run(results, "duplex", "tls", 11, points=100_000)
+    t = [t for t in sc.truth.doors if abs(t.scope.center[0] - 1.85) < 0.05 and abs(t.scope.center[1] + 11.61) < 0.05]
+    assert len(t) == 1
+    found = {d.id: d for d in _in_truth_frame(m, sc.truth).doors}
+    pair = [a for a, b in r["doors"]["pairs"] if b == t[0].id]
+    assert pair, r["doors"]
+    assert abs(_opening_width(found[pair[0]]) - _opening_width(t[0])) <= 0.05, _opening_width(found[pair[0]])
