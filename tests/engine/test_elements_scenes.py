@@ -712,6 +712,18 @@ def _matched(sc, r, kind, x, y):
     return t[0].id in {b for _, b in r[kind]["pairs"]}
 
 
+def _door_width_error(sc, m, r, x, y) -> float:
+    """|found − true| width (m) of the door matched to the true door centred at plan (x, y)."""
+    from engine.evaluation.elements import _in_truth_frame, _opening_width
+
+    t = [t for t in sc.truth.doors if abs(t.scope.center[0] - x) < 0.05 and abs(t.scope.center[1] - y) < 0.05]
+    assert len(t) == 1, (x, y)
+    found = {d.id: d for d in _in_truth_frame(m, sc.truth).doors}
+    pair = [a for a, b in r["doors"]["pairs"] if b == t[0].id]
+    assert pair, r["doors"]
+    return abs(_opening_width(found[pair[0]]) - _opening_width(t[0]))
+
+
 @pytest.mark.slow
 def test_a_door_whose_lower_part_the_scan_missed_is_a_door(results):
     """The Duplex, mobile, 100k points, seed 3: two bedroom doors (0.76 m) show nothing in
@@ -752,15 +764,8 @@ def test_a_terrace_door_beside_its_glazing_is_measured_to_its_own_jamb(results, 
     door was measured to the glazing's jamb, 0.94 m. Terrestrial, seed 9: the door was cut
     from the glazing and both stopped halfway across the pier's columns, 0.748 m. Both within
     5 cm now."""
-    from engine.evaluation.elements import _in_truth_frame, _opening_width
-
     sc, m, r = _run(results, "duplex", noise, seed, points=100_000)
-    t = [t for t in sc.truth.doors if abs(t.scope.center[0] - 5.76) < 0.05 and abs(t.scope.center[1] + 17.59) < 0.05]
-    assert len(t) == 1
-    found = {d.id: d for d in _in_truth_frame(m, sc.truth).doors}
-    pair = [a for a, b in r["doors"]["pairs"] if b == t[0].id]
-    assert pair, r["doors"]
-    assert abs(_opening_width(found[pair[0]]) - _opening_width(t[0])) <= 0.05, _opening_width(found[pair[0]])
+    assert _door_width_error(sc, m, r, 5.76, -17.59) <= 0.05
 
 
 @pytest.mark.slow
@@ -781,12 +786,5 @@ def test_a_door_10_cm_from_its_wall_run_s_end_is_measured_to_its_jamb(results):
     gap ran out to the wall run's end, and the jamb was looked for beyond it only: the door
     read 0.996 m, to the run's end. Its reveal, 20 points inside the thickness, lies inside
     the gap: looked for there when the gap reaches the run's end, the door is within 5 cm."""
-    from engine.evaluation.elements import _in_truth_frame, _opening_width
-
     sc, m, r = _run(results, "duplex", "tls", 11, points=100_000)
-    t = [t for t in sc.truth.doors if abs(t.scope.center[0] - 1.85) < 0.05 and abs(t.scope.center[1] + 11.61) < 0.05]
-    assert len(t) == 1
-    found = {d.id: d for d in _in_truth_frame(m, sc.truth).doors}
-    pair = [a for a, b in r["doors"]["pairs"] if b == t[0].id]
-    assert pair, r["doors"]
-    assert abs(_opening_width(found[pair[0]]) - _opening_width(t[0])) <= 0.05, _opening_width(found[pair[0]])
+    assert _door_width_error(sc, m, r, 1.85, -11.61) <= 0.05
