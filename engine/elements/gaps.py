@@ -289,14 +289,12 @@ def hole_edge(coord, other, inside, lo, hi, olo, ohi, take_max, inward: float = 
     return min(end, cs[1]) if take_max else max(end, cs[1])
 
 
-def head_across(fu, fz, et: Optional[float], el: float, er: float, across: tuple, c: float) -> bool:
-    """Whether the head measured at ``et`` over a hole from ``el`` to ``er`` (metres) shows
-    points (face and reveal, ``fu``, ``fz``) within two cells of it away from the jambs: more
-    than 15 cm in from both sides, within ``across``."""
+def head_across(fu, fz, et: Optional[float], mid: tuple, c: float) -> bool:
+    """Whether the head measured at ``et`` over a hole shows points (face and reveal, ``fu``,
+    ``fz``) within two cells of it over ``mid``, the hole's width away from its jambs."""
     if et is None:
         return False
-    near = (np.abs(fz - et) <= 2 * c) & (fu >= across[0]) & (fu <= across[1])
-    return bool((near & (fu > el + 0.15) & (fu < er - 0.15)).any())
+    return bool(((np.abs(fz - et) <= 2 * c) & (fu > mid[0]) & (fu < mid[1])).any())
 
 
 def round_hole(fu, fz, fin, el: float, er: float, eb: float, et: float, tol: float, proud, dev,

@@ -487,13 +487,13 @@ def _measure(w: _Wall, dd: _Data, rect, side, outer: list, obs, tol: float, leaf
             # the sill's top unseen, its face seen right above the floor all along the hole
             top = hole_edge(fz, fu, fin, z0, zb + c, el + 0.05, er - 0.05, True)
             floor_reach, eb = False, max(z0 + p.min_sill, zb - c if top is None else top)
+    mid = (max(across[0], el + 0.15), min(across[1], er - 0.15))  # the hole 15 cm clear of its jambs
     if floor_reach and not ceil_reach and side is None and not leafy and et - z0 < p.min_door_height \
-            and not head_across(fu, fz, et if head_seen else None, el, er, across, c):
+            and not head_across(fu, fz, et if head_seen else None, mid, c):
         # too low for a door, with no point over the gap up to the search's end but the jambs'
         # own: a sparse face's kernel closed it from those, and the head is the first face
         # above them, away from the jambs (the Duplex's terrace doors on mobile scans at 100k
         # points: the gap's top at 1.0 m, where the jamb and the pier beside it showed points)
-        mid = (max(across[0], el + 0.15), min(across[1], er - 0.15))
         lo = (et if head_seen else zt) + c
         top = hole_edge(fz, fu, fin, lo, z1, *mid, False, tol, proud, dev, pz) if mid[1] > mid[0] else None
         et = et if top is None else top

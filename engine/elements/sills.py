@@ -10,7 +10,7 @@ import numpy as np
 
 from .params import OpeningParams
 
-__all__ = ["meet", "floor_under", "low_quantile", "split_by_bottom", "level_sill"]
+__all__ = ["floor_under", "level_sill", "low_quantile", "meet", "split_by_bottom"]
 
 
 def low_quantile(col: np.ndarray, h: np.ndarray, mask: np.ndarray, n: int, q: float = 0.2) -> np.ndarray:
